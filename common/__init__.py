@@ -1,0 +1,1 @@
+"""Shared across tiers: message types, conventions, the clock, configuration and errors."""

@@ -1,0 +1,120 @@
+"""Tier 1: the command line of the driverless stack.
+
+``python main.py`` with no arguments runs ``python main.py sim`` on the default track.
+
+Subcommands are contributed by the packages: a package with a ``cli.py`` that defines
+``register(subparsers, common)`` adds its subcommands, so ``--help`` lists only those that exist.
+Each registered subcommand sets ``func(args, config) -> int`` on its parser. Every subcommand
+takes ``--config FILE`` (overrides of the defaults); a bad config stops the program before
+anything starts, with one line naming the file, the key and what was expected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import logging
+import os
+import sys
+from collections.abc import Sequence
+
+from common.config import AppConfig, config_to_toml, load_config
+from common.errors import FsdError
+
+log = logging.getLogger("main")
+
+#: Packages whose ``cli.py`` may register subcommands, in the order ``--help`` lists them.
+COMMAND_PACKAGES = (
+    "orchestrator",
+    "simulator",
+    "sensors",
+    "recordings",
+    "visualiser",
+    "mapper",
+    "planner",
+    "controller",
+    "bench",
+)
+
+DEFAULT_COMMAND = "sim"
+
+
+def _config_command(args: argparse.Namespace, config: AppConfig) -> int:
+    if not args.print:
+        print("nothing to do: use 'config --print' to show the merged configuration",
+              file=sys.stderr)
+        return 2
+    sys.stdout.write(config_to_toml(config))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The whole command line: common options, ``config``, and every package's subcommands."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--config", metavar="FILE", default=None,
+                        help="TOML file overriding the default configuration")
+    common.add_argument("-v", "--verbose", action="count", default=0,
+                        help="more log output (-vv for debug)")
+
+    parser = argparse.ArgumentParser(
+        prog="main.py",
+        description="Driverless Formula Student stack. With no subcommand: 'sim' on the default "
+        "track.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    for package in COMMAND_PACKAGES:
+        if importlib.util.find_spec(package) is None:
+            continue
+        if importlib.util.find_spec(f"{package}.cli") is None:
+            continue
+        module = importlib.import_module(f"{package}.cli")
+        module.register(sub, common)
+
+    config_parser = sub.add_parser("config", parents=[common],
+                                   help="show the merged configuration")
+    config_parser.add_argument("--print", action="store_true",
+                               help="print the merged configuration as TOML")
+    config_parser.set_defaults(func=_config_command)
+    return parser
+
+
+def _setup_logging(verbosity: int) -> None:
+    level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
+    logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+
+
+def cli(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the process exit code."""
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser()
+    choices: dict[str, argparse.ArgumentParser] = (
+        parser._subparsers._group_actions[0].choices  # type: ignore[union-attr,assignment]
+    )
+    if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
+        if DEFAULT_COMMAND in choices:
+            argv = [DEFAULT_COMMAND, *argv]
+        else:
+            parser.print_help()
+            return 0
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return 0
+    _setup_logging(getattr(args, "verbose", 0))
+    try:
+        config = load_config(getattr(args, "config", None))
+        return int(args.func(args, config) or 0)
+    except FsdError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(cli())
