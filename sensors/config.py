@@ -40,6 +40,10 @@ class CanConfig:
     """Path of the DBC file; empty for the car.dbc shipped with the project."""
     timeout_s: float = 0.1
     read_timeout_s: float = 0.05
+    res_timeout_s: float = 0.5
+    """No RES_STATE frame for longer than this makes the "res" source stale (an emergency)."""
+    slcan_open_delay_s: float = 0.0
+    """slcan only: wait after opening the tty (Arduino-based adapters reset on open: 2 s)."""
 
 
 @dataclass(slots=True)
@@ -75,3 +79,8 @@ class SensorsConfig:
     camera: CameraConfig = field(default_factory=CameraConfig)
     queue_length: int = 4096
     stop_timeout_s: float = 1.0
+    reconnect_min_s: float = 0.05
+    """First wait before reopening a vanished port / bus-off bus; doubles up to reconnect_max_s."""
+    reconnect_max_s: float = 1.0
+    rate_window_s: float = 2.0
+    """Window (s) over which health() reports each source's rate."""
