@@ -17,6 +17,108 @@ class SmootherConfig:
     confidence_decay: float = 1.0
     match_conf: float = 2.0
     initial_conf: float = 2.0
+    detection_range_m: float = 20.0
+    """Seed 002, 7.2 note: objects farther than this from the sensor do not decay."""
+    detection_fov_rad: float = 3.4
+    """Full horizontal field of view around the sensor's x axis; objects outside do not decay."""
+    protect_min_matches: int = 1
+    """Only objects matched at least this often are spared the decay outside the range (a
+    one-off false detection at the edge of the field of view must still die)."""
+    publish_min_matches: int = 1
+    """Objects matched fewer times are kept internally but not published in the map."""
+    position_weight_new: float = 0.0
+    """Weight of a new detection in the weighted average; 0 = 1 / (match_count + 2)."""
+
+
+@dataclass(slots=True)
+class ObjectFilterConfig:
+    """Seed 002, 7.2: reject detections that are too small, too near or too far."""
+
+    min_range_m: float = 1.0
+    max_range_m: float = 20.0
+    min_height_m: float = 0.1
+    max_height_m: float = 0.8
+    min_width_m: float = 0.05
+    max_width_m: float = 0.6
+
+
+@dataclass(slots=True)
+class UkfConfig:
+    """Seed 001: UKF localisation (state x, y, yaw, vx, vy, yaw rate); see mapper/ukf_localiser.py.
+
+    Mahalanobis gates are distances (sigma units), as robot_localization's rejection thresholds.
+    """
+
+    use_odometry: bool = True
+    use_gnss_position: bool = True
+    use_gnss_velocity: bool = True
+    use_cones: bool = True
+    alpha: float = 1.0
+    beta: float = 0.0
+    kappa: float = 3.0
+    """Sigma-point spread: n + lambda = alpha^2 (n + kappa) (Julier's n + kappa = 3 + ...)."""
+    yaw_rate_blend_nu: float = 0.0
+    """Seed 001, alg. 2 line 8: omega = nu * omega + (1 - nu) * gyro (0: trust the gyro)."""
+    imu_lever_arm: bool = True
+    accel_sigma_mps2: float = 0.08
+    """Accelerometer white noise per sample (m/s^2), after the standstill bias calibration."""
+    gyro_sigma_radps: float = 0.005
+    """Gyro white noise per sample (rad/s)."""
+    gyro_bias_sigma_radps: float = 5.0e-4
+    """Residual gyro bias (rad/s): spread into the yaw-rate state's process noise."""
+    accel_bias_sigma_mps2: float = 0.01
+    static_calibration: bool = True
+    """Average the IMU while the car stands still at the start: gyro and accelerometer biases."""
+    static_min_samples: int = 50
+    static_gyro_threshold_radps: float = 0.03
+    static_accel_threshold_mps2: float = 0.4
+    lateral_velocity_sigma_mps: float = 0.05
+    """Without GNSS velocity the rear axle's lateral speed is held at zero (seed 001, II.A)."""
+    max_predict_dt_s: float = 0.05
+    initial_position_sigma_m: float = 0.01
+    initial_yaw_sigma_rad: float = 0.005
+    initial_velocity_sigma_mps: float = 0.05
+    odometry_speed_sigma_mps: float = 0.05
+    odometry_yaw_rate_sigma_radps: float = 0.1
+    odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
+    odometry_gate_sigma: float = 5.0
+    gnss_position_sigma_m: float = 2.5
+    gnss_position_gate_sigma: float = 4.0
+    gnss_speed_sigma_mps: float = 0.08
+    gnss_min_speed_mps: float = 1.0
+    """Seed 001: GNSS velocity and track are fused only above this speed."""
+    gnss_track_sigma_floor_rad: float = 0.01
+    gnss_velocity_gate_sigma: float = 5.0
+    cone_sigma_m: float = 0.05
+    cone_association_m: float = 1.0
+    """A detection is paired with the nearest map cone within this distance (world frame)."""
+    cone_gate_sigma: float = 3.5
+    cone_update_heading: bool = False
+    """Seed 001 updates only the position from cones (its update mask); True also the yaw."""
+    cone_max_yaw_rate_radps: float = 10.0
+    """Seed 001's suggested fix: skip cone updates when turning faster than this."""
+    start_heading_known: bool = False
+    """True: the world frame's heading in ENU is config.sim.start_heading_enu_rad (dual antenna,
+    magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
+    heading_estimate_samples: int = 20
+    """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
+    heading_estimate_max_yaw_rate_radps: float = 0.1
+    track_alignment_distance_m: float = 20.0
+    """Fallback without courses: align the GNSS track with the filter's over this travel."""
+
+
+@dataclass(slots=True)
+class FusionConfig:
+    """Seed 000, 6.2.1: delay every measurement to the slowest sensor, then predict to now."""
+
+    max_delay_s: float = 0.3
+    """A source silent for longer than this no longer holds the lagged filter back."""
+    colour_min_votes: int = 1
+    colour_gate_m: float = 1.0
+    """A camera cone votes for the nearest landmark within this distance (world frame)."""
+    loop_min_distance_m: float = 60.0
+    """Smoother backend: the loop closes back at the big orange cones after this travel."""
+    loop_close_radius_m: float = 4.0
 
 
 @dataclass(slots=True)
@@ -79,3 +181,6 @@ class MapperConfig:
     backend: Literal["slam", "smoother"] = "slam"
     smoother: SmootherConfig = field(default_factory=SmootherConfig)
     slam: SlamConfig = field(default_factory=SlamConfig)
+    object_filter: ObjectFilterConfig = field(default_factory=ObjectFilterConfig)
+    ukf: UkfConfig = field(default_factory=UkfConfig)
+    fusion: FusionConfig = field(default_factory=FusionConfig)
