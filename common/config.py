@@ -23,6 +23,7 @@ import tomli_w
 from common.errors import ConfigError
 from controller.config import ControllerConfig
 from mapper.config import MapperConfig
+from orchestrator.config import RunConfig
 from planner.config import PlannerConfig
 from recordings.config import RecordingConfig
 from sensors.config import SensorsConfig
@@ -75,6 +76,7 @@ class AppConfig:
     sim: SimConfig = field(default_factory=SimConfig)
     visualiser: VisualiserConfig = field(default_factory=VisualiserConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
+    run: RunConfig = field(default_factory=RunConfig)
 
 
 T = TypeVar("T")

@@ -1,0 +1,100 @@
+"""What a run keeps for its summary and plots: truth and estimates per tick, laps, stops."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from common.conventions import wrap_angles
+from common.messages import GroundTruth, PoseEstimate
+
+
+@dataclass
+class LapTimer:
+    """Counts start-line crossings from the progress (m) along a closed track of length L (m).
+
+    A crossing is a jump of the progress from the last quarter of the lap to the first quarter,
+    in the driving direction; its time is interpolated between the two samples.
+    """
+
+    lap_length_m: float
+    crossings_s: list[float] = field(default_factory=list)
+    _last_progress_m: float | None = None
+    _last_t_s: float = 0.0
+
+    def update(self, t_s: float, progress_m: float) -> bool:
+        """Feed one sample; True when the start line was crossed since the last one."""
+        crossed = False
+        last = self._last_progress_m
+        if last is not None:
+            length = self.lap_length_m
+            if last > 0.75 * length and progress_m < 0.25 * length:
+                ahead = (length - last) / max(length - last + progress_m, 1e-9)
+                self.crossings_s.append(self._last_t_s + ahead * (t_s - self._last_t_s))
+                crossed = True
+        self._last_progress_m = progress_m
+        self._last_t_s = t_s
+        return crossed
+
+
+@dataclass
+class RunLog:
+    """Per-tick samples (appended as the run goes; turned into arrays at the end)."""
+
+    t_s: list[float] = field(default_factory=list)
+    truth: list[tuple[float, float, float, float]] = field(default_factory=list)
+    estimate: list[tuple[float, float, float, float]] = field(default_factory=list)
+    position_var_m2: list[float] = field(default_factory=list)
+    target_speed_mps: list[float] = field(default_factory=list)
+    throttle: list[float] = field(default_factory=list)
+    brake: list[float] = field(default_factory=list)
+    steering_rad: list[float] = field(default_factory=list)
+
+    def add(self, t_s: float, truth: GroundTruth | None, pose: PoseEstimate,
+            target_speed_mps: float, throttle: float, brake: float, steering_rad: float) -> None:
+        self.t_s.append(t_s)
+        if truth is not None:
+            self.truth.append((truth.x_m, truth.y_m, truth.yaw_rad,
+                               math.hypot(truth.vx_mps, truth.vy_mps)))
+        self.estimate.append((pose.x_m, pose.y_m, pose.yaw_rad, pose.speed_mps))
+        self.position_var_m2.append(float(pose.covariance[0, 0] + pose.covariance[1, 1]))
+        self.target_speed_mps.append(target_speed_mps)
+        self.throttle.append(throttle)
+        self.brake.append(brake)
+        self.steering_rad.append(steering_rad)
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every series as a numpy array; truth and estimate are (T, 4): x, y, yaw, speed."""
+        return {
+            "t_s": np.asarray(self.t_s),
+            "truth": np.asarray(self.truth).reshape(-1, 4),
+            "estimate": np.asarray(self.estimate).reshape(-1, 4),
+            "position_var_m2": np.asarray(self.position_var_m2),
+            "target_speed_mps": np.asarray(self.target_speed_mps),
+            "throttle": np.asarray(self.throttle),
+            "brake": np.asarray(self.brake),
+            "steering_rad": np.asarray(self.steering_rad),
+        }
+
+    def save(self, path: Path) -> None:
+        """Write the arrays as a compressed ``.npz`` (for plots and later analysis)."""
+        np.savez_compressed(path, **self.arrays())
+
+    def pose_errors(self) -> dict[str, float]:
+        """Position and heading RMSE over the run and the final position offset (m, rad)."""
+        arrays = self.arrays()
+        truth, est = arrays["truth"], arrays["estimate"]
+        n = min(len(truth), len(est))
+        if n == 0:
+            return {"pose_rmse_m": math.nan, "heading_rmse_rad": math.nan,
+                    "final_offset_m": math.nan}
+        d = est[:n, :2] - truth[:n, :2]
+        dyaw = wrap_angles(est[:n, 2] - truth[:n, 2])
+        return {
+            "pose_rmse_m": float(np.sqrt(np.mean(np.sum(d * d, axis=1)))),
+            "heading_rmse_rad": float(np.sqrt(np.mean(dyaw * dyaw))),
+            "final_offset_m": float(np.hypot(*d[-1])),
+        }

@@ -1,0 +1,378 @@
+"""The closed-loop simulation run (``python main.py sim``, the default of ``python main.py``).
+
+Phases, as on the car (ARCHITECTURE.md, "Phases of a run"):
+
+1. Exploration: the scripted driver (the person, on the car) drives one lap and a little past the
+   start line while the stack maps and records waypoints; the stack's commands are not applied.
+2. The car stands still; loop closure has happened at the big orange cones.
+3. The simulated RES sends "go" over CAN; the stack drives its autonomous laps.
+4. The controller stops the car at the end of its laps, or earlier on any fault.
+
+The stack only ever sees the raw bytes the simulated sensors emit, which are recorded, so a
+replay of the recording gives the same outputs (``outputs_sha256``) as this run.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from common.clock import RealClock, SimClock
+from common.config import AppConfig
+from common.messages import ActuatorCommand, AsState
+from controller.controller import Controller
+from mapper.evaluation import evaluate_map
+from mapper.mapper import Mapper
+from orchestrator.main_loop import Main
+from orchestrator.outputs import HashSink
+from orchestrator.run_log import LapTimer, RunLog
+from planner.path_planner import PathPlanner
+from recordings.recorder import Recorder
+from recordings.topics import TRUTH_POSE, TRUTH_TRACK
+from sensors.manager import SensorManager
+from simulator.driver import ScriptedDriver
+from simulator.faults import parse_fault
+from simulator.tracks import Track, load_track
+from simulator.world import SimWorld
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class SimOptions:
+    """What the ``sim`` command line asks for (None: the configuration's value)."""
+
+    track: str | None = None
+    laps: int | None = None
+    seed: int | None = None
+    mapper: str | None = None
+    out_dir: Path | None = None
+    render: bool | None = None
+    record: bool | None = None
+    realtime: bool = False
+    faults: list[str] = field(default_factory=list)
+    progress: bool = False
+
+
+def default_out_dir(root: Path = Path("runs")) -> Path:
+    """``runs/<date-time>/`` (local time, to the second; a suffix keeps it unique)."""
+    stamp = dt.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    out = root / stamp
+    n = 1
+    while out.exists():
+        n += 1
+        out = root / f"{stamp}_{n}"
+    return out
+
+
+class _Phase:
+    EXPLORATION = "exploration"
+    STOPPING = "stopping_after_exploration"
+    HANDOVER = "handover"
+    AUTONOMOUS = "autonomous"
+
+
+def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
+    """Run one closed-loop simulation; write the run folder; return the summary."""
+    if options.track is not None:
+        config.sim.track = options.track
+    if options.laps is not None:
+        config.sim.laps = options.laps
+    if options.seed is not None:
+        config.sim.seed = options.seed
+    if options.mapper is not None:
+        config.mapper.backend = options.mapper  # type: ignore[assignment]
+    if options.render is not None:
+        config.run.render = options.render
+    if options.record is not None:
+        config.run.record = options.record
+    config.controller.laps = config.sim.laps
+
+    out_dir = options.out_dir or default_out_dir()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    track = load_track(config.sim.track)
+    faults = [parse_fault(text) for text in options.faults]
+    world = SimWorld(config, track, config.sim.seed, faults=faults)
+    driver = ScriptedDriver(track, config.car, config.sim.seed)
+
+    clock = SimClock()
+    sensors = SensorManager(config, clock)
+    hasher = HashSink()
+    recorder = None
+    outputs: list[Any] = [hasher]
+    if config.run.record:
+        recorder = Recorder(out_dir / "recording.mcap", config.recording)
+        outputs.append(recorder)
+        recorder.write(TRUTH_TRACK, track, 0.0)
+    visualiser = None
+    if config.run.render:
+        from visualiser.visualiser import Visualiser
+
+        visualiser = Visualiser(config, out_dir / "frames")
+    main = Main(
+        config,
+        sensors=sensors,
+        mapper=Mapper(config),
+        planner=PathPlanner(config),
+        controller=Controller(config),
+        outputs=outputs,
+        recorder=recorder,
+        visualiser=visualiser,
+    )
+    main.track = track
+
+    runner = _SimRunner(config, options, track, world, driver, main, clock, recorder)
+    try:
+        result = runner.run()
+    finally:
+        sensors.stop() if hasattr(sensors, "stop") else None
+        if recorder is not None:
+            recorder.close()
+        if visualiser is not None:
+            visualiser.close()
+
+    summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    runner.log.save(out_dir / "run_log.npz")
+    _plots(out_dir, runner, track)
+    summary["out_dir"] = str(out_dir)
+    return summary
+
+
+@dataclass
+class _Result:
+    finished: bool
+    stop_reason: str
+    wall_time_s: float
+    sim_time_s: float
+
+
+class _SimRunner:
+    """Steps the world and Main tick by tick and plays the person at the side of the track."""
+
+    def __init__(self, config: AppConfig, options: SimOptions, track: Track, world: SimWorld,
+                 driver: ScriptedDriver, main: Main, clock: SimClock, recorder: Any) -> None:
+        self.config = config
+        self.options = options
+        self.track = track
+        self.world = world
+        self.driver = driver
+        self.main = main
+        self.clock = clock
+        self.recorder = recorder
+        self.log = RunLog()
+        self.laps = LapTimer(track.lap_length_m)
+        self.phase = _Phase.EXPLORATION
+        self.exploration_lap_time_s = math.nan
+        self.handover_time_s = math.nan
+        self.autonomous_crossings_s: list[float] = []
+        self.loop_closure_time_s = math.nan
+        self.estop: dict[str, float] | None = None
+        self._estop_start: tuple[float, float, float, float] | None = None
+        self._estop_path_m = 0.0
+        self._still_since_s: float | None = None
+        self._explore_end_progress_m = math.nan
+        self.sim_periods_ms: list[float] = []
+
+    def run(self) -> _Result:
+        config = self.config
+        dt_s = 1.0 / config.run.control_rate_hz
+        max_ticks = int(config.run.max_sim_time_s / dt_s)
+        wall0 = time.perf_counter()
+        pacer = RealClock() if self.options.realtime else None
+        command: ActuatorCommand | None = None
+        stop_reason = "timeout"
+        finished = False
+        progress = _Progress(self.options.progress, config.sim.laps)
+        for k in range(1, max_ticks + 1):
+            t_s = k * dt_s
+            if pacer is not None:
+                pacer.sleep_until(t_s)
+            applied = self._applied_command(t_s, command)
+            raw = self.world.step_to(t_s, applied)
+            self.clock.set(t_s)
+            truth = self.world.truth()
+            self.main.truth = truth
+            command = self.main.tick(t_s, raw)
+            if self.recorder is not None and k % 10 == 0:
+                self.recorder.write(TRUTH_POSE, truth, t_s)
+            self._observe(t_s, truth, command)
+            progress.update(t_s, len(self.autonomous_crossings_s), self.phase)
+            done, reason, ok = self._done(t_s, truth)
+            if done:
+                stop_reason, finished = reason, ok
+                break
+        progress.close()
+        return _Result(finished, stop_reason, time.perf_counter() - wall0, self.clock.now_s())
+
+    # -------------------------------------------------------------- the person at the side
+    def _applied_command(self, t_s: float, stack_command: ActuatorCommand | None
+                         ) -> ActuatorCommand | None:
+        """What drives the car: the scripted driver until handover, the stack after it."""
+        if self.phase == _Phase.AUTONOMOUS:
+            return stack_command
+        truth = self.world.truth()
+        if self.phase == _Phase.EXPLORATION:
+            return self.driver.command(truth, t_s)
+        # Stopping after the exploration lap, and standing until "go".
+        return ActuatorCommand(t_s, 0.0, 1.0, self.driver.command(truth, t_s).steering_rad,
+                               AsState.READY)
+
+    def _observe(self, t_s: float, truth: Any, command: ActuatorCommand) -> None:
+        main = self.main
+        progress_m = self.track.progress_m(truth.x_m, truth.y_m)
+        crossed = self.laps.update(t_s, progress_m)
+        speed = math.hypot(truth.vx_mps, truth.vy_mps)
+        if self.phase == _Phase.EXPLORATION:
+            if crossed and math.isnan(self.exploration_lap_time_s):
+                self.exploration_lap_time_s = self.laps.crossings_s[-1]
+                self._explore_end_progress_m = progress_m
+            if not math.isnan(self.exploration_lap_time_s) and (
+                progress_m >= self.config.run.exploration_overrun_m
+                and progress_m < 0.5 * self.track.lap_length_m
+            ):
+                self.phase = _Phase.STOPPING
+        elif self.phase == _Phase.STOPPING:
+            if speed < 0.05:
+                self._still_since_s = self._still_since_s or t_s
+                if t_s - self._still_since_s >= self.config.run.handover_standstill_s:
+                    self.phase = _Phase.AUTONOMOUS
+                    self.handover_time_s = t_s
+                    self.world.send_go()
+                    log.info("handover to the stack at t=%.2f s", t_s)
+        elif self.phase == _Phase.AUTONOMOUS and crossed:
+            self.autonomous_crossings_s.append(self.laps.crossings_s[-1])
+
+        ms = main.map_state
+        if ms is not None:
+            if ms.loop_closed and math.isnan(self.loop_closure_time_s):
+                self.loop_closure_time_s = t_s
+            plan = main.plan
+            target = plan.target_speed_mps if plan is not None else 0.0
+            self.log.add(t_s, truth, ms.pose, target, command.throttle, command.brake,
+                         command.steering_rad)
+        self._track_estop(t_s, truth, speed)
+
+    def _track_estop(self, t_s: float, truth: Any, speed: float) -> None:
+        if self.world.estop_active and self._estop_start is None:
+            self._estop_start = (t_s, speed, truth.x_m, truth.y_m)
+            self._last_xy = (truth.x_m, truth.y_m)
+        if self._estop_start is not None and self.estop is None:
+            self._estop_path_m += math.hypot(truth.x_m - self._last_xy[0],
+                                             truth.y_m - self._last_xy[1])
+            self._last_xy = (truth.x_m, truth.y_m)
+            if speed < 0.05:
+                t0, v0, _, _ = self._estop_start
+                self.estop = {
+                    "time_s": round(t0, 3),
+                    "speed_mps": round(v0, 3),
+                    "stop_distance_m": round(self._estop_path_m, 3),
+                    "stop_time_s": round(t_s - t0, 3),
+                    "allowed_distance_m": round(v0 * v0 / (2 * 10.0) + 0.1 * v0, 3),
+                }
+
+    def _done(self, t_s: float, truth: Any) -> tuple[bool, str, bool]:
+        controller = self.main.controller
+        speed = math.hypot(truth.vx_mps, truth.vy_mps)
+        state = controller.state
+        if self.phase == _Phase.AUTONOMOUS and state in (AsState.FINISHED, AsState.EMERGENCY):
+            if speed < 0.05:
+                reason = controller.stop_reason or state.name.lower()
+                if self.estop is None and self._estop_start is not None:
+                    return False, "", False
+                return True, reason, state == AsState.FINISHED
+        if self.world.estop_active and self.phase != _Phase.AUTONOMOUS and speed < 0.05:
+            return True, "estop", False
+        return False, "", False
+
+
+class _Progress:
+    """A one-line progress bar on stderr for long runs (tqdm), when asked for."""
+
+    def __init__(self, enabled: bool, laps: int) -> None:
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=laps, desc="sim", unit="lap", leave=False)
+        self._laps = 0
+
+    def update(self, t_s: float, laps: int, phase: str) -> None:
+        if self.bar is None:
+            return
+        if laps != self._laps:
+            self.bar.update(laps - self._laps)
+            self._laps = laps
+        if int(t_s * 10) % 10 == 0:
+            self.bar.set_postfix_str(f"t={t_s:.0f}s {phase}", refresh=False)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runner: _SimRunner,
+             result: _Result, outputs_sha256: str) -> dict[str, Any]:
+    crossings = runner.autonomous_crossings_s
+    starts = [runner.handover_time_s, *crossings[:-1]] if crossings else []
+    lap_times = [round(end - start, 3) for start, end in zip(starts, crossings, strict=False)]
+    errors = runner.log.pose_errors()
+    map_state = main.map_state
+    map_eval: dict[str, Any] = {}
+    if map_state is not None:
+        map_eval = evaluate_map(map_state.cones, track.cones_xy_m, track.colours)
+    tick_ms = main.times.summary_ms().get("tick", {})
+    summary: dict[str, Any] = {
+        "track": track.name,
+        "seed": config.sim.seed,
+        "mapper": config.mapper.backend,
+        "finished": result.finished,
+        "stop_reason": result.stop_reason,
+        "laps_completed": len(crossings),
+        "lap_times_s": lap_times,
+        "best_lap_time_s": min(lap_times) if lap_times else None,
+        "exploration_lap_time_s": _round(runner.exploration_lap_time_s),
+        "cones_hit": len(world.cones_hit),
+        "off_track": world.off_track_events,
+        "pose_rmse_m": _round(errors["pose_rmse_m"], 4),
+        "heading_rmse_rad": _round(errors["heading_rmse_rad"], 5),
+        "final_offset_m": _round(errors["final_offset_m"], 4),
+        "map": map_eval,
+        "loop_closure": {
+            "closed": bool(map_state is not None and map_state.loop_closed),
+            "time_s": _round(runner.loop_closure_time_s),
+        },
+        "timing": {
+            "sim_time_s": round(result.sim_time_s, 3),
+            "wall_time_s": round(result.wall_time_s, 3),
+            "realtime_factor": round(result.sim_time_s / max(result.wall_time_s, 1e-9), 3),
+            "control_period_target_ms": round(1e3 / config.run.control_rate_hz, 3),
+            "control_period_p99_ms": round(1e3 / config.run.control_rate_hz, 3),
+            "tick_wall_p99_ms": tick_ms.get("p99_ms"),
+            "stages_ms": main.times.summary_ms(),
+        },
+        "rejected_stale": dict(main.rejected),
+        "outputs_sha256": outputs_sha256,
+    }
+    if runner.estop is not None:
+        summary["estop"] = runner.estop
+    return summary
+
+
+def _round(value: float, digits: int = 3) -> float | None:
+    return None if value is None or not math.isfinite(value) else round(value, digits)
+
+
+def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:
+    try:
+        from visualiser.plots import write_summary_plots
+    except ImportError:  # the visualiser is optional for a run
+        log.warning("visualiser.plots not available: no summary plots")
+        return
+    write_summary_plots(out_dir, runner.log.arrays(), track)

@@ -1,0 +1,48 @@
+"""A short human-readable table of a run's summary (the CLI prints it)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    if isinstance(value, list):
+        return ", ".join(_fmt(v) for v in value) or "-"
+    return str(value)
+
+
+def format_summary(summary: dict[str, Any]) -> str:
+    """The headline figures of ``summary.json``, one per line."""
+    timing = summary.get("timing", {})
+    map_eval = summary.get("map", {})
+    rows = [
+        ("track", summary.get("track")),
+        ("finished", summary.get("finished")),
+        ("stop reason", summary.get("stop_reason")),
+        ("autonomous laps", summary.get("laps_completed")),
+        ("lap times (s)", summary.get("lap_times_s")),
+        ("exploration lap (s)", summary.get("exploration_lap_time_s")),
+        ("cones hit", summary.get("cones_hit")),
+        ("off track", summary.get("off_track")),
+        ("pose RMSE (m)", summary.get("pose_rmse_m")),
+        ("heading RMSE (rad)", summary.get("heading_rmse_rad")),
+        ("map landmarks / true", f"{map_eval.get('landmarks', '-')} / "
+                                 f"{map_eval.get('true_cones', '-')}"),
+        ("map RMSE (m)", map_eval.get("rmse_m")),
+        ("loop closed at (s)", summary.get("loop_closure", {}).get("time_s")),
+        ("sim / wall time (s)", f"{_fmt(timing.get('sim_time_s'))} / "
+                                f"{_fmt(timing.get('wall_time_s'))}"),
+        ("realtime factor", timing.get("realtime_factor")),
+    ]
+    if "estop" in summary:
+        estop = summary["estop"]
+        rows.append(("e-stop distance (m)", f"{_fmt(estop.get('stop_distance_m'))} "
+                                            f"(allowed {_fmt(estop.get('allowed_distance_m'))})"))
+    if "out_dir" in summary:
+        rows.append(("run folder", summary["out_dir"]))
+    width = max(len(name) for name, _ in rows)
+    return "\n".join(f"{name:<{width}}  {_fmt(value)}" for name, value in rows)
