@@ -37,6 +37,38 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
     sim.set_defaults(func=_sim)
 
+    replay = subparsers.add_parser(
+        "replay", parents=[common],
+        help="feed a recording's raw sensor data through the stack (deterministic at any rate)",
+    )
+    replay.add_argument("recording", type=Path, help="an .mcap recording")
+    pace = replay.add_mutually_exclusive_group()
+    pace.add_argument("--rate", type=float, default=None,
+                      help="replay rate on the recording's clock (1 = real time)")
+    pace.add_argument("--max", action="store_true", help="as fast as possible (default)")
+    replay.add_argument("--out", type=Path, help="folder for summary.json (and frames)")
+    replay.add_argument("--render", action="store_true", help="render frames into OUT/frames")
+    replay.add_argument("--json", action="store_true", help="print the summary as JSON")
+    replay.set_defaults(func=_replay)
+
+    drive = subparsers.add_parser(
+        "drive", parents=[common],
+        help="drive the real car: live sensors, commands out on CAN, recording on",
+    )
+    drive.add_argument("--laps", type=int, help="autonomous laps (default: config sim.laps)")
+    drive.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
+    drive.add_argument("--no-record", dest="record", action="store_false", default=True)
+    drive.add_argument("--seconds", type=float, help="stop after this long (s)")
+    drive.add_argument("--render", action="store_true", help="render frames of the map")
+    drive.set_defaults(func=_drive)
+
+    record = subparsers.add_parser(
+        "record", parents=[common], help="record live sensors to an MCAP file, no control"
+    )
+    record.add_argument("--out", type=Path, required=True, help="the .mcap file to write")
+    record.add_argument("--seconds", type=float, help="stop after this long (s)")
+    record.set_defaults(func=_record)
+
 
 def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.sim import SimOptions, run_sim
@@ -55,3 +87,49 @@ def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     else:
         print(format_summary(summary))
     return 0 if summary["stop_reason"] != "timeout" else 1
+
+
+def _replay(args: argparse.Namespace, config: AppConfig) -> int:
+    import json
+
+    from orchestrator.replay import ReplayOptions, run_replay
+
+    summary = run_replay(config, ReplayOptions(args.recording, rate=args.rate,
+                                               out_dir=args.out, render=args.render))
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        timing = summary["timing"]
+        print(f"replayed {summary['ticks']} ticks ({timing['sim_time_s']} s) in "
+              f"{timing['wall_time_s']} s, {timing['realtime_factor']}x real time")
+        for key in ("pose_rmse_m", "heading_rmse_rad", "final_offset_m"):
+            if key in summary:
+                print(f"{key}: {summary[key]}")
+        print(f"outputs_sha256: {summary['outputs_sha256']}")
+    return 0
+
+
+def _drive(args: argparse.Namespace, config: AppConfig) -> int:
+    import json
+
+    from orchestrator.live import DriveOptions, LiveMain
+    from orchestrator.sim import default_out_dir
+
+    options = DriveOptions(out_dir=args.out or default_out_dir(), laps=args.laps,
+                           record=args.record, seconds=args.seconds, render=args.render)
+    summary = LiveMain(config, options).run()
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _record(args: argparse.Namespace, config: AppConfig) -> int:
+    import json
+
+    from orchestrator.live import DriveOptions, LiveMain
+
+    out: Path = args.out
+    options = DriveOptions(out_dir=out.parent, record=True, control=False, seconds=args.seconds,
+                           recording_name=out.name)
+    summary = LiveMain(config, options).run()
+    print(json.dumps(summary, indent=2))
+    return 0
