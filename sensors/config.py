@@ -47,6 +47,44 @@ class CanConfig:
 
 
 @dataclass(slots=True)
+class DetectorConfig:
+    """LiDAR cone detection (seed 000, section 4.2); see sensors/cone_detector.py."""
+
+    min_range_m: float = 1.0
+    """Returns closer to the sensor than this (horizontally) are dropped (m)."""
+    max_range_m: float = 15.0
+    """Preliminary filter: surfaces farther than this are dropped (m)."""
+    fov_half_deg: float = 120.0
+    """Usable field of view either side of straight ahead (deg); the rest sees the car."""
+    car_margin_m: float = 0.1
+    """Returns inside the car's footprint grown by this margin are dropped (m)."""
+    ground_clearance_m: float = 0.05
+    """Returns lower than this above the ground plane are ground (m)."""
+    max_point_height_m: float = 0.7
+    """Returns higher than this above the ground cannot be cone surface (m)."""
+    surface_range_jump_m: float = 0.15
+    """A range step larger than this between successive returns of a ring splits surfaces (m)."""
+    surface_max_gap_deg: float = 0.65
+    """An azimuth gap larger than this between successive returns of a ring splits (deg)."""
+    max_surface_width_m: float = 0.40
+    """Preliminary filter: surfaces wider than this are not part of a cone (m)."""
+    min_surface_points: int = 2
+    merge_distance_m: float = 0.3
+    """Surfaces whose x-y midpoints are closer than this form one preliminary cone (m)."""
+    cluster_radius_m: float = 0.9
+    cluster_max_cones: int = 2
+    """Cluster filter: more than this many preliminary cones within cluster_radius_m go."""
+    min_layers: int = 2
+    single_layer_beyond_m: float = 5.0
+    """Beyond this range one layer is accepted when the ring geometry allows only one (m)."""
+    min_points: int = 3
+    small_height_m: float = 0.30
+    large_height_m: float = 0.50
+    height_tolerance_m: float = 0.05
+    """A top measured above large_height_m plus this is not a cone (m)."""
+
+
+@dataclass(slots=True)
 class LidarConfig:
     """Velodyne VLP-16 data packets over UDP."""
 
@@ -55,6 +93,9 @@ class LidarConfig:
     port: int = 2368
     timeout_s: float = 0.3
     read_timeout_s: float = 0.05
+    cut_azimuth_deg: float = 180.0
+    """Sweeps are cut where the azimuth passes this (deg, clockwise from ahead: 180 = behind)."""
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
 
 
 @dataclass(slots=True)
