@@ -1,0 +1,241 @@
+"""The Sensor Manager (Tier 2): builds the receivers from the config, runs them, hands Main
+everything since its last call, and reports each source's health.
+
+Two ways to run, ONE parsing path (an :class:`~sensors.receiver.Intake` per source):
+
+- live (``drive``, the emulator): :meth:`SensorManager.start` starts one receiver thread per
+  enabled source; :meth:`SensorManager.stop` stops them all against one deadline
+  (``sensors.stop_timeout_s``).
+- offline (simulation, replay): :meth:`SensorManager.ingest` runs raw units through the same
+  parsers in the caller's thread.
+
+Either way :meth:`SensorManager.take` returns a :class:`SensorBatch` and
+:meth:`SensorManager.health` a :class:`~common.messages.Health`.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from common.clock import Clock
+from common.config import AppConfig
+from common.errors import SensorError
+from common.messages import ActuatorCommand, CanFrame, Health, RawBytes, Reading, SourceHealth
+from sensors.can_codec import CanCodec
+from sensors.receiver import FrameDecoder, Intake, Parser, RawUnit, Receiver, join_all
+
+logger = logging.getLogger(__name__)
+
+SOURCES = ("gps", "imu", "can", "lidar", "camera")
+"""Every source the manager knows, in the order health reports them ("res" follows "can")."""
+
+
+@dataclass(frozen=True, slots=True)
+class SensorBatch:
+    """What arrived since the last :meth:`SensorManager.take`.
+
+    ``raw``: the raw units (``RawBytes`` / ``CanFrame``) in time order, for the recorder;
+    ``readings``: the parsed readings in time order (stable for equal times);
+    ``latest``: the latest reading of each kind ever received, keyed ``gps``, ``imu``,
+    ``wheel_speeds``, ``steering``, ``res``, ``lidar``, ``camera``.
+    """
+
+    raw: list[RawBytes | CanFrame] = field(default_factory=list)
+    readings: list[Reading] = field(default_factory=list)
+    latest: dict[str, Reading] = field(default_factory=dict)
+
+
+def _time_key(item: Any) -> float:
+    return float(item.timestamp_s)
+
+
+def make_parser(source: str, config: AppConfig) -> Parser | FrameDecoder:
+    """The parser of ``source`` (imported lazily: each lives in its own module)."""
+    if source == "gps":
+        from sensors.nmea import NmeaParser
+        return NmeaParser()  # type: ignore[no-any-return]
+    if source == "imu":
+        from sensors.imu_protocol import ImuParser
+        return ImuParser()  # type: ignore[no-any-return]
+    if source == "can":
+        return CanCodec(config.sensors.can.dbc or None)
+    if source == "lidar":
+        from sensors.lidar_parser import LidarParser
+        return LidarParser(config)  # type: ignore[no-any-return]
+    if source == "camera":
+        from sensors.camera_codec import CameraParser
+        return CameraParser()  # type: ignore[no-any-return]
+    raise SensorError(f"unknown sensor source {source!r} (expected one of {', '.join(SOURCES)})")
+
+
+class SensorManager:
+    """Receivers, parsers and health of every enabled sensor.
+
+    ``parsers`` overrides the parser of a source (tests, tools); the others come from
+    :func:`make_parser`. A source is enabled by ``config.sensors.<source>.enabled``.
+    """
+
+    def __init__(self, config: AppConfig, clock: Clock,
+                 parsers: Mapping[str, Parser | FrameDecoder] | None = None) -> None:
+        self.config = config
+        self.clock = clock
+        sc = config.sensors
+        self.enabled: tuple[str, ...] = tuple(
+            s for s in SOURCES if getattr(sc, s).enabled)
+        overrides = dict(parsers or {})
+        self.intakes: dict[str, Intake] = {}
+        for source in self.enabled:
+            parser = overrides.get(source) or make_parser(source, config)
+            self.intakes[source] = Intake(source, parser, sc.queue_length, sc.rate_window_s)
+        self.receivers: dict[str, Receiver] = {}
+        self.rejects: collections.Counter[str] = collections.Counter()
+        self._command_codec = CanCodec(sc.can.dbc or None)
+        self._latest: dict[str, Reading] = {}
+        self._started = False
+
+    # -- live -----------------------------------------------------------------------------
+
+    def _build_receiver(self, source: str) -> Receiver:
+        sc = self.config.sensors
+        cfg = getattr(sc, source)
+        intake = self.intakes[source]
+        common = dict(read_timeout_s=cfg.read_timeout_s, reconnect_min_s=sc.reconnect_min_s,
+                      reconnect_max_s=sc.reconnect_max_s)
+        receiver: Receiver
+        if source in ("gps", "imu"):
+            from sensors.serial_receiver import LineFramer, SerialReceiver
+            framer = LineFramer() if source == "gps" else None
+            receiver = SerialReceiver(self.clock, intake.parser, cfg.port,  # type: ignore[arg-type]
+                                      cfg.baudrate, framer=framer, **common)
+        elif source == "can":
+            from sensors.can_receiver import CanReceiver
+            bus_kwargs: dict[str, Any] = {}
+            if cfg.interface == "slcan":
+                bus_kwargs["sleep_after_open"] = cfg.slcan_open_delay_s
+            codec = intake.parser
+            assert isinstance(codec, CanCodec)
+            receiver = CanReceiver(self.clock, codec, cfg.interface, cfg.channel, cfg.bitrate,
+                                   bus_kwargs=bus_kwargs, **common)
+        else:
+            from sensors.udp_receiver import UdpReceiver
+            receiver = UdpReceiver(self.clock, intake.parser, cfg.host,  # type: ignore[arg-type]
+                                   cfg.port, **common)
+        receiver.intake = intake  # one intake per source, shared with ingest()
+        return receiver
+
+    def start(self) -> None:
+        """Start one receiver thread per enabled source (ports are opened in the threads and
+        retried while they are missing)."""
+        if self._started:
+            return
+        for source in self.enabled:
+            if source not in self.receivers:
+                self.receivers[source] = self._build_receiver(source)
+        for receiver in self.receivers.values():
+            receiver.start()
+        self._started = True
+        logger.info("sensor manager started: %s", ", ".join(self.receivers) or "no receivers")
+
+    def stop(self) -> bool:
+        """Stop every receiver against one deadline (``sensors.stop_timeout_s``); True when
+        every thread ended in time."""
+        if not self.receivers:
+            self._started = False
+            return True
+        late = join_all(self.receivers.values(), self.config.sensors.stop_timeout_s)
+        self._started = False
+        return not late
+
+    def __enter__(self) -> SensorManager:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def wait_connected(self, timeout_s: float) -> bool:
+        """Block until every receiver has its transport open (True) or ``timeout_s`` passed."""
+        import time
+        deadline = time.monotonic() + timeout_s
+        return all(r.wait_connected(max(0.0, deadline - time.monotonic()))
+                   for r in self.receivers.values())
+
+    # -- offline --------------------------------------------------------------------------
+
+    def ingest(self, raw: Sequence[RawUnit]) -> None:
+        """Parse raw units in this thread (simulation, replay); read them with :meth:`take`.
+
+        A unit of a source that is not enabled is counted in ``rejects["unknown_source"]``.
+        """
+        intakes = self.intakes
+        for unit in raw:
+            source = "can" if isinstance(unit, CanFrame) else unit.source
+            intake = intakes.get(source)
+            if intake is None:
+                if not self.rejects[f"unknown_source:{source}"]:
+                    logger.warning("raw unit of source %r that is not enabled: ignored", source)
+                self.rejects[f"unknown_source:{source}"] += 1
+                self.rejects["unknown_source"] += 1
+                continue
+            intake.ingest(unit)
+
+    # -- both -----------------------------------------------------------------------------
+
+    def take(self) -> SensorBatch:
+        """Everything since the last call, in time order, and the latest reading of each kind."""
+        raw: list[RawUnit] = []
+        readings: list[Reading] = []
+        for intake in self.intakes.values():
+            r, p = intake.take()
+            raw.extend(r)
+            readings.extend(p)
+            self._latest.update(intake.latest_copy())
+        if len(self.intakes) > 1:
+            raw.sort(key=_time_key)
+            readings.sort(key=_time_key)
+        return SensorBatch(raw, readings, dict(self._latest))
+
+    def health(self, now_s: float) -> Health:
+        """Freshness of each enabled source at ``now_s`` (the run's clock).
+
+        A source is stale when its last reading is older than its ``timeout_s`` (or it has none
+        yet). With CAN enabled, ``res`` reports the RES_STATE frames alone (stale after
+        ``sensors.can.res_timeout_s``), since a lost RES must stop the car even while the wheel
+        speeds keep coming.
+        """
+        sc = self.config.sensors
+        out: list[SourceHealth] = []
+        for source, intake in self.intakes.items():
+            receiver = self.receivers.get(source)
+            if receiver is not None:
+                st = receiver.stats(now_s)
+                alive = st.running and st.connected
+            else:
+                st = intake.stats(now_s)
+                alive = st.raw_count > 0
+            timeout_s = getattr(sc, source).timeout_s
+            out.append(SourceHealth(now_s, source, alive, st.rate_hz, st.age_s, st.errors,
+                                    st.age_s > timeout_s, tuple(st.rejects.items())))
+            if source == "can":
+                count, rate, age = st.kinds.get("res", (0, 0.0, float("inf")))
+                out.append(SourceHealth(now_s, "res", alive, rate, age, 0,
+                                        age > sc.can.res_timeout_s, ()))
+        return Health(now_s, tuple(out))
+
+    def send_command(self, cmd: ActuatorCommand) -> CanFrame:
+        """Encode ``cmd`` as the DBC's AS_COMMAND frame and, when live, send it on the CAN bus.
+
+        Returns the frame (also offline, where the simulator takes it). A send failure is
+        counted in the CAN source's errors and logged; it does not raise.
+        """
+        frame = self._command_codec.encode_command(cmd)
+        receiver = self.receivers.get("can")
+        if receiver is not None and self._started:
+            from sensors.can_receiver import CanReceiver
+            if isinstance(receiver, CanReceiver):
+                receiver.send(frame)
+        return frame
