@@ -3,11 +3,76 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 
 @dataclass(slots=True)
 class PlannerConfig:
-    """Waypoints, baseframe, manoeuvres and speed profile."""
+    """Waypoints, baseframe, manoeuvres and speed profile (SI units, unit in every name)."""
 
-    waypoint_reach_m: float = 2.5
     rate_hz: float = 10.0
+
+    # Waypoint book (seed 002, 3.2.1)
+    waypoint_reach_m: float = 2.5
+    """A waypoint is dropped once the car is within this distance of it."""
+    waypoint_spacing_m: float = 1.5
+    """Distance between waypoints recorded during the exploration drive."""
+    waypoints_served: int = 3
+    """How many upcoming waypoints the book serves (seed 002: the next three)."""
+    loop_close_distance_m: float = 4.0
+    """The recorded drive is a closed lap when it comes back within this of its first waypoint."""
+    min_loop_length_m: float = 30.0
+
+    # Waypoints from the cone map (no exploration drive)
+    max_cone_pair_distance_m: float = 7.0
+    """Blue-yellow Delaunay edges longer than this are not track crossings."""
+    min_cone_pair_distance_m: float = 2.0
+    nominal_track_width_m: float = 3.5
+    """Used when only one side of the track has cones: the path is offset by half of it."""
+    waypoint_max_step_m: float = 8.0
+    waypoint_max_turn_rad: float = 1.2
+
+    # Baseframe
+    baseframe_resample_m: float = 1.0
+    baseframe_smoothing_m: float = 2.5
+    """Gaussian smoothing (standard deviation along the path) before the spline fit."""
+    baseframe_step_m: float = 0.25
+    centre_on_cones: bool = True
+    max_centring_shift_m: float = 2.0
+
+    # Manoeuvres (seed 002, 3.2.2)
+    offsets_max_m: float = 1.5
+    offsets_count: int = 13
+    horizon_time_s: float = 1.2
+    horizon_min_m: float = 8.0
+    horizon_max_m: float = 20.0
+    extension_m: float = 12.0
+    """Length the chosen offset is held along the baseframe beyond the horizon (for look-ahead)."""
+    path_step_m: float = 0.5
+    cone_clearance_m: float = 0.4
+    """Cone centre to car side: half the car's width plus this, at every point of a candidate."""
+    curvature_limit_fraction: float = 0.9
+    """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
+    weight_curvature: float = 2.0
+    weight_offset: float = 0.3
+    weight_consistency: float = 1.0
+    weight_clearance: float = 4.0
+    preferred_clearance_m: float = 0.6
+    cone_search_radius_m: float = 30.0
+
+    # Speed profile
+    speed_mode: Literal["profile", "two_level"] = "profile"
+    friction_safety_factor: float = 0.85
+    """Fraction of the car's lateral, drive and brake limits the profile plans with."""
+    max_speed_mps: float = 25.0
+    two_level_fast_mps: float = 8.0
+    two_level_slow_mps: float = 4.0
+    two_level_turn_rad: float = 0.35
+    """Two-level mode: slow when the baseframe turns by more than this over the preview."""
+    two_level_preview_m: float = 10.0
+    min_plan_speed_mps: float = 1.0
+
+    # Laps
+    lap_min_fraction: float = 0.5
+    """A start-line crossing counts as a lap only after this fraction of a lap of travel."""
+    projection_window_m: float = 15.0

@@ -1,0 +1,166 @@
+"""The manoeuvre generator (seed 002, 3.2.2).
+
+From the current pose, candidate paths run to end states offset across the baseframe over a
+horizon: in the Frenet frame d(s) is a cubic that starts at the car's lateral offset and heading
+and ends at the offset with zero slope; beyond the horizon the offset is held. Candidates that come
+within half the car's width plus a margin of a cone, or that bend more than the car can steer, are
+dropped; the rest are graded on curvature, clearance, offset and agreement with the last choice.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from common.config import CarConfig
+from planner.baseframe import SplineBaseframe
+from planner.config import PlannerConfig
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Candidate:
+    """One candidate path: Frenet s, d (K,), world xy (K, 2), heading (K,), curvature (K,)."""
+
+    offset_m: float
+    s_m: FloatArray
+    d_m: FloatArray
+    xy_m: FloatArray
+    heading_rad: FloatArray
+    curvature_1pm: FloatArray
+    clearance_m: float
+    """Smallest distance from a cone centre to the circles covering the car along the path (m;
+    inf without cones)."""
+    feasible: bool
+    cost: float
+    reason: str = ""
+
+
+def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Heading (K,) and curvature (K,) of a polyline by finite differences."""
+    d1 = np.gradient(xy, axis=0)
+    d2 = np.gradient(d1, axis=0)
+    heading = np.arctan2(d1[:, 1], d1[:, 0])
+    speed = np.maximum(np.linalg.norm(d1, axis=1), 1e-9)
+    kappa = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / speed**3
+    return heading, kappa
+
+
+class ManoeuvreGenerator:
+    """Candidate manoeuvres along a baseframe, collision and curvature checked, graded."""
+
+    def __init__(self, config: PlannerConfig, car: CarConfig) -> None:
+        self.config = config
+        self.car = car
+        self.kappa_max_1pm = (
+            math.tan(car.max_steer_rad) / car.wheelbase_m * config.curvature_limit_fraction
+        )
+        # circles covering the car body (corners included), centres ahead of the rear axle
+        front = car.length_m - car.rear_overhang_m
+        rear = -car.rear_overhang_m
+        half_w = car.width_m / 2.0
+        n = max(int(math.ceil(2.0 * (front - rear) / car.width_m)), 2)
+        spacing = (front - rear) / n
+        self.circle_offsets_m = rear + spacing * (np.arange(n) + 0.5)
+        self.circle_radius_m = math.hypot(half_w, spacing / 2.0)
+        self.required_m = self.circle_radius_m + config.cone_clearance_m
+
+    def offsets(self) -> FloatArray:
+        """The end-state offsets (m), symmetric about the baseframe."""
+        c = self.config
+        return np.linspace(-c.offsets_max_m, c.offsets_max_m, max(c.offsets_count, 1))
+
+    def horizon_m(self, speed_mps: float) -> float:
+        """Horizon (m): speed x horizon time, clipped to [min, max]."""
+        c = self.config
+        return float(np.clip(abs(speed_mps) * c.horizon_time_s, c.horizon_min_m, c.horizon_max_m))
+
+    def generate(
+        self,
+        frame: SplineBaseframe,
+        s0_m: float,
+        d0_m: float,
+        yaw_rad: float,
+        speed_mps: float,
+        cones_xy_m: FloatArray,
+        last_offset_m: float | None,
+    ) -> tuple[list[Candidate], int]:
+        """All candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
+        none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame)."""
+        c = self.config
+        horizon = self.horizon_m(speed_mps)
+        _, _, h0, k0 = frame.sample(s0_m)
+        dpsi = math.remainder(yaw_rad - float(h0), 2.0 * math.pi)
+        dpsi = float(np.clip(dpsi, -1.2, 1.2))
+        slope0 = math.tan(dpsi) * (1.0 - float(k0) * d0_m)
+        total = horizon + c.extension_m
+        if not frame.closed:  # an open frame ends: so do the candidates
+            total = min(total, frame.length_m - s0_m)
+            if total < 2.0 * c.path_step_m:
+                return [], -1
+            horizon = min(horizon, 0.7 * total)
+        n = max(int(math.ceil(total / c.path_step_m)), 4)
+        u = np.linspace(0.0, total, n + 1)
+        in_h = u <= horizon
+        tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
+        cands: list[Candidate] = []
+        for off in self.offsets():
+            # cubic d(u) = d0 + slope0 u + a u^2 + b u^3 with d(H) = off, d'(H) = 0
+            H = horizon
+            rhs1 = off - d0_m - slope0 * H
+            rhs2 = -slope0
+            a = (3.0 * rhs1 - rhs2 * H) / H**2
+            b = (rhs2 * H - 2.0 * rhs1) / H**3
+            d = np.where(in_h, d0_m + slope0 * u + a * u**2 + b * u**3, off)
+            s = s0_m + u
+            xy = frame.frenet_to_xy(s, d)
+            heading, kappa = _path_geometry(xy)
+            cands.append(self._grade(off, s, d, xy, heading, kappa, in_h, tree, last_offset_m))
+        feasible = [i for i, cand in enumerate(cands) if cand.feasible]
+        if not feasible:
+            return cands, -1
+        best = min(feasible, key=lambda i: cands[i].cost)
+        return cands, best
+
+    def _grade(
+        self,
+        off: float,
+        s: FloatArray,
+        d: FloatArray,
+        xy: FloatArray,
+        heading: FloatArray,
+        kappa: FloatArray,
+        in_h: NDArray[np.bool_],
+        tree: cKDTree | None,
+        last_offset_m: float | None,
+    ) -> Candidate:
+        c = self.config
+        reason = ""
+        k_abs = np.abs(kappa[1:-1]) if len(kappa) > 2 else np.abs(kappa)
+        kmax = float(k_abs.max()) if len(k_abs) else 0.0
+        feasible = True
+        if kmax > self.kappa_max_1pm:
+            feasible, reason = False, f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
+        clearance = math.inf
+        if tree is not None:
+            cos_h, sin_h = np.cos(heading), np.sin(heading)
+            centres = (xy[:, None, :] + self.circle_offsets_m[None, :, None]
+                       * np.stack([cos_h, sin_h], axis=1)[:, None, :]).reshape(-1, 2)
+            dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
+            clearance = float(np.min(dist)) - self.circle_radius_m
+            if clearance < c.cone_clearance_m and feasible:
+                feasible, reason = False, f"clearance {clearance:.2f} m to a cone"
+        step = float(np.mean(np.diff(s))) if len(s) > 1 else 1.0
+        cost = c.weight_curvature * float(np.sum(kappa[in_h] ** 2) * step)
+        cost += c.weight_offset * off * off
+        if last_offset_m is not None:
+            cost += c.weight_consistency * (off - last_offset_m) ** 2
+        if math.isfinite(clearance):
+            short = max(0.0, c.preferred_clearance_m - clearance)
+            cost += c.weight_clearance * short * short
+        return Candidate(off, s, d, xy, heading, kappa, clearance, feasible, cost, reason)

@@ -1,0 +1,281 @@
+"""The Path Planner (Tier 2): waypoint book, baseframe, manoeuvres, speed profile, laps.
+
+Usage (the Main loop): :meth:`PathPlanner.observe` on every map update (records waypoints during
+the exploration drive), :meth:`PathPlanner.start_autonomous` once when the autonomous laps begin
+(builds the baseframe from one lap of waypoints, or from the cone map when there was no
+exploration drive), then :meth:`PathPlanner.plan` at the planner rate.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.config import AppConfig
+from common.errors import TrackError
+from common.messages import Baseframe, MapState, Plan, TargetStates
+from planner.baseframe import SplineBaseframe, centre_on_cones
+from planner.manoeuvres import Candidate, ManoeuvreGenerator
+from planner.speed_profile import (
+    SpeedLimits,
+    curvature_speed_limit_mps,
+    forward_backward_speed_mps,
+    two_level_speed_mps,
+)
+from planner.waypoints import WaypointBook, waypoints_from_cones
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+
+def empty_targets() -> TargetStates:
+    """A manoeuvre with no states."""
+    z = np.zeros(0)
+    return TargetStates(z, z, z, z, z, z)
+
+
+class PathPlanner:
+    """Plans the car's next manoeuvre from the map state (see the module docstring)."""
+
+    def __init__(self, config: AppConfig) -> None:
+        self.config = config.planner
+        self.car = config.car
+        c = self.config
+        self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
+        self.generator = ManoeuvreGenerator(c, config.car)
+        self.limits = SpeedLimits.from_car(config.car, c.friction_safety_factor, c.max_speed_mps)
+        self.frame: SplineBaseframe | None = None
+        self.frame_source = ""
+        self._frame_msg: Baseframe | None = None
+        self._speed_mps = np.zeros(0)
+        self.autonomous = False
+        self._s_hint: float | None = None
+        self._last_offset: float | None = None
+        self._s_start: float | None = None
+        self._progress_m = 0.0
+        self.lap = 0
+        self.rejects: collections.Counter[str] = collections.Counter()
+
+    # ------------------------------------------------------------------ phases
+    def observe(self, map_state: MapState) -> None:
+        """Record a waypoint from the estimated pose (exploration drive only)."""
+        if self.autonomous:
+            return
+        pose = map_state.pose
+        if not self.book.record(pose.x_m, pose.y_m) and not (
+            math.isfinite(pose.x_m) and math.isfinite(pose.y_m)
+        ):
+            self.rejects["non_finite_pose"] += 1
+
+    def start_autonomous(self, map_state: MapState) -> None:
+        """Build the baseframe and start the autonomous laps.
+
+        One closed lap of recorded waypoints when the exploration drive came back to its start;
+        otherwise waypoints from the cone map. A failure is logged and counted; :meth:`plan` then
+        keeps trying from the cone map.
+        """
+        self.autonomous = True
+        if len(self.book) >= 8 and self.book.close_loop(
+            self.config.loop_close_distance_m, self.config.min_loop_length_m
+        ):
+            self._build_frame(self.book.points_xy_m, True, "waypoints", map_state)
+        elif len(self.book) >= 8:
+            logger.warning("exploration drive did not close a lap; using the cone map")
+        if self.frame is None:
+            self._frame_from_cones(map_state)
+        self._reset_progress(map_state)
+
+    # ------------------------------------------------------------------ frame building
+    def _build_frame(
+        self, points: FloatArray, closed: bool, source: str, map_state: MapState
+    ) -> bool:
+        c = self.config
+        try:
+            frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
+                                    smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
+            cones = map_state.cones
+            if c.centre_on_cones and len(cones) >= 8:
+                frame = centre_on_cones(frame, cones.xy_m, cones.colour,
+                                        max_shift_m=c.max_centring_shift_m,
+                                        resample_m=c.baseframe_resample_m,
+                                        smoothing_m=c.baseframe_smoothing_m,
+                                        step_m=c.baseframe_step_m)
+        except (TrackError, ValueError) as exc:
+            self.rejects["baseframe"] += 1
+            logger.warning("baseframe from %s failed: %s", source, exc)
+            return False
+        self.frame = frame
+        self.frame_source = source
+        self._frame_msg = frame.to_message()
+        self._speed_mps = self._profile(frame)
+        if source == "waypoints":
+            self.book.set_points(frame.xy_m[:: max(int(c.waypoint_spacing_m / frame.step_m), 1)],
+                                 closed)
+        logger.info("baseframe from %s: %.1f m, closed=%s", source, frame.length_m, closed)
+        return True
+
+    def _frame_from_cones(self, map_state: MapState) -> bool:
+        c = self.config
+        pose = map_state.pose
+        if not all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad)):
+            return False
+        pts, closed = waypoints_from_cones(
+            map_state.cones.xy_m, map_state.cones.colour, (pose.x_m, pose.y_m), pose.yaw_rad,
+            min_pair_m=c.min_cone_pair_distance_m, max_pair_m=c.max_cone_pair_distance_m,
+            track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
+            max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
+        )
+        if len(pts) < 3:
+            self.rejects["no_track_in_cones"] += 1
+            return False
+        ok = self._build_frame(pts, closed, "cones", map_state)
+        if ok and not closed:
+            self.book.set_points(pts, closed=False)
+        return ok
+
+    def _profile(self, frame: SplineBaseframe) -> FloatArray:
+        c = self.config
+        ds = np.full(len(frame.s_m) if frame.closed else len(frame.s_m) - 1, frame.step_m)
+        extra = None
+        if c.speed_mode == "two_level":
+            extra = two_level_speed_mps(frame.s_m, frame.heading_rad, frame.closed,
+                                        frame.length_m, c.two_level_fast_mps,
+                                        c.two_level_slow_mps, c.two_level_turn_rad,
+                                        c.two_level_preview_m)
+        return forward_backward_speed_mps(frame.curvature_1pm, ds, self.limits, frame.closed,
+                                          v_end_mps=None if frame.closed else 0.0,
+                                          v_limit_mps=extra)
+
+    def speed_at(self, s_m: FloatArray) -> FloatArray:
+        """The baseframe speed profile (m/s) at arc lengths ``s_m``."""
+        assert self.frame is not None
+        if self.frame.closed:
+            return np.asarray(np.interp(s_m, self.frame.s_m, self._speed_mps,
+                                        period=self.frame.length_m), np.float64)
+        return np.asarray(np.interp(s_m, self.frame.s_m, self._speed_mps), np.float64)
+
+    # ------------------------------------------------------------------ laps
+    def _reset_progress(self, map_state: MapState) -> None:
+        self._s_hint = None
+        self._s_start = None
+        self._progress_m = 0.0
+        self.lap = 0
+        pose = map_state.pose
+        if self.frame is not None and math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
+            s, _ = self.frame.project(pose.x_m, pose.y_m)
+            self._s_hint = s
+            self._s_start = s
+
+    def _update_lap(self, s: float) -> None:
+        frame = self.frame
+        if frame is None or not frame.closed:
+            return
+        if self._s_start is None:
+            self._s_start = s
+            self._s_hint = s
+            return
+        assert self._s_hint is not None
+        length = frame.length_m
+        delta = math.remainder(s - self._s_hint, length)
+        self._progress_m += delta
+        crossings = math.floor((self._s_start + self._progress_m) / length)
+        if length - self._s_start < self.config.lap_min_fraction * length:
+            crossings -= 1  # started just before the line: its first crossing is no lap
+        self.lap = max(self.lap, crossings)
+
+    # ------------------------------------------------------------------ planning
+    def plan(self, map_state: MapState, now_s: float) -> Plan:
+        """The next manoeuvre from the map state's pose, as timed target states."""
+        pose = map_state.pose
+        finite = all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps))
+        if not finite:
+            self.rejects["non_finite_pose"] += 1
+            logger.warning("plan: non-finite pose rejected")
+            return self._empty_plan(now_s)
+        if self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
+            self._frame_from_cones(map_state)
+            if self.frame is not None and self.frame.closed:
+                self._reset_progress(map_state)
+        frame = self.frame
+        if frame is None:
+            return self._empty_plan(now_s)
+        if frame.closed or self._s_hint is not None:
+            s0, d0 = frame.project(pose.x_m, pose.y_m, self._s_hint,
+                                   self.config.projection_window_m)
+            if abs(d0) > 6.0:  # lost the branch: search everywhere
+                s0, d0 = frame.project(pose.x_m, pose.y_m)
+        else:
+            s0, d0 = frame.project(pose.x_m, pose.y_m)
+        self._update_lap(s0)
+        self._s_hint = s0
+        cones = map_state.cones.xy_m
+        if len(cones):
+            near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)
+            cones = cones[near < self.config.cone_search_radius_m]
+        speed = pose.speed_mps
+        cands, best = self.generator.generate(frame, s0, d0, pose.yaw_rad, speed, cones,
+                                              self._last_offset)
+        waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
+        if not cands:
+            return self._empty_plan(now_s, waypoints)
+        if best >= 0:
+            chosen = cands[best]
+            self._last_offset = chosen.offset_m
+            targets = self._targets(chosen, now_s, stop=False)
+        else:
+            self.rejects["no_feasible_manoeuvre"] += 1
+            logger.warning("no feasible manoeuvre at s=%.1f m: stopping", s0)
+            fallback = max(range(len(cands)), key=lambda i: cands[i].clearance_m)
+            targets = self._targets(cands[fallback], now_s, stop=True)
+        return Plan(
+            timestamp_s=now_s,
+            baseframe=self._frame_msg,
+            manoeuvre=targets,
+            target_speed_mps=float(targets.speed_mps[0]) if len(targets) else 0.0,
+            candidates=tuple(cand.xy_m for cand in cands),
+            chosen_index=best,
+            waypoints_xy_m=waypoints,
+            lap=self.lap,
+        )
+
+    def _targets(self, cand: Candidate, now_s: float, stop: bool) -> TargetStates:
+        """Discretise a candidate into timed target states with friction-limited speeds."""
+        s = cand.s_m
+        ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
+        if stop:
+            v_lim = np.zeros(len(s))
+            v_lim[0] = math.inf
+        else:
+            v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
+                                                                          self.limits))
+        v_end = float(min(v_lim[-1], self.speed_at(s[-1:])[0])) if not stop else 0.0
+        # backward pass: every target can be reached with the (safety-scaled) brakes
+        v = v_lim.copy()
+        v[-1] = min(v[-1], v_end)
+        for i in range(len(v) - 2, -1, -1):
+            v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * self.limits.brake_mps2 * ds[i]))
+        if stop:
+            v[0] = v[1] if len(v) > 1 else 0.0
+        v = np.maximum(v, 0.0)
+        if not stop:
+            v = np.maximum(v, min(self.config.min_plan_speed_mps, float(v_lim.min())))
+        v_mean = np.maximum(0.5 * (v[1:] + v[:-1]), 0.5)
+        t = now_s + np.concatenate([[0.0], np.cumsum(ds / v_mean)])
+        return TargetStates(t_s=t, x_m=cand.xy_m[:, 0], y_m=cand.xy_m[:, 1],
+                            yaw_rad=cand.heading_rad, speed_mps=v,
+                            curvature_1pm=cand.curvature_1pm)
+
+    def _empty_plan(self, now_s: float, waypoints: FloatArray | None = None) -> Plan:
+        return Plan(
+            timestamp_s=now_s,
+            baseframe=self._frame_msg,
+            manoeuvre=empty_targets(),
+            target_speed_mps=0.0,
+            waypoints_xy_m=np.zeros((0, 2)) if waypoints is None else waypoints,
+            lap=self.lap,
+        )

@@ -1,0 +1,170 @@
+"""Speed profiles: friction-circle forward-backward pass, and seed 002's two-level speed.
+
+The forward-backward pass follows the idea of TUM's ``trajectory_planning_helpers``
+``calc_vel_profile``: the curvature limits the speed through the lateral acceleration
+(v^2 |kappa| <= a_lat); a forward pass limits the acceleration to what the friction circle leaves
+after cornering, a backward pass the braking likewise. On a closed frame both passes start at
+the slowest point of the curvature limit, where the speed of the lap is known.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from common.config import CarConfig
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class SpeedLimits:
+    """A point mass's limits: lateral, drive and brake acceleration (m/s^2), top speed (m/s)."""
+
+    lateral_mps2: float
+    drive_mps2: float
+    brake_mps2: float
+    top_speed_mps: float
+
+    @classmethod
+    def from_car(
+        cls, car: CarConfig, safety_factor: float = 1.0, max_speed_mps: float = math.inf
+    ) -> SpeedLimits:
+        """The car's limits scaled by ``safety_factor`` (0..1), top speed capped."""
+        return cls(
+            lateral_mps2=car.max_lateral_accel_mps2 * safety_factor,
+            drive_mps2=car.max_drive_accel_mps2 * safety_factor,
+            brake_mps2=car.max_brake_decel_mps2 * safety_factor,
+            top_speed_mps=min(car.top_speed_mps, max_speed_mps),
+        )
+
+
+def curvature_speed_limit_mps(kappa_1pm: ArrayLike, limits: SpeedLimits) -> FloatArray:
+    """Highest speed (m/s) at each curvature (1/m): sqrt(a_lat / |kappa|), capped at top speed."""
+    k = np.abs(np.asarray(kappa_1pm, np.float64))
+    with np.errstate(divide="ignore"):
+        v = np.sqrt(limits.lateral_mps2 / np.maximum(k, 1e-12))
+    return np.minimum(v, limits.top_speed_mps)
+
+
+def _long_accel_available(v: float, kappa: float, a_lon: float, a_lat: float) -> float:
+    """Longitudinal acceleration the friction circle leaves at speed v on curvature kappa."""
+    usage = v * v * abs(kappa) / a_lat
+    if usage >= 1.0:
+        return 0.0
+    return a_lon * math.sqrt(1.0 - usage * usage)
+
+
+def _pass(v_lim: FloatArray, kappa: FloatArray, ds: FloatArray, a_lon: float, a_lat: float,
+          v0: float) -> FloatArray:
+    """One pass: v[i+1] <= sqrt(v[i]^2 + 2 a ds[i]), with a from the friction circle."""
+    v = np.empty_like(v_lim)
+    v[0] = min(v0, v_lim[0])
+    for i in range(len(v) - 1):
+        a = _long_accel_available(float(v[i]), float(kappa[i]), a_lon, a_lat)
+        v[i + 1] = min(v_lim[i + 1], math.sqrt(v[i] * v[i] + 2.0 * a * ds[i]))
+    return v
+
+
+def forward_backward_speed_mps(
+    kappa_1pm: ArrayLike,
+    ds_m: ArrayLike,
+    limits: SpeedLimits,
+    closed: bool,
+    v_start_mps: float | None = None,
+    v_end_mps: float | None = None,
+    v_limit_mps: ArrayLike | None = None,
+) -> FloatArray:
+    """The friction-limited speed (M,) (m/s) at M samples of curvature ``kappa_1pm``.
+
+    ``v_limit_mps`` (M,) is an optional further upper bound (e.g. seed 002's two speed levels).
+    ``ds_m`` is the distance from sample i to sample i+1: (M,) for a closed frame (the last one
+    back to sample 0), (M-1,) for an open one. An open frame starts at ``v_start_mps`` (default
+    the limit) and ends at ``v_end_mps`` (default the limit).
+    """
+    kappa = np.asarray(kappa_1pm, np.float64)
+    ds = np.asarray(ds_m, np.float64)
+    m = len(kappa)
+    if m == 0:
+        return np.zeros(0)
+    if len(ds) != (m if closed else m - 1):
+        raise ValueError(f"ds_m has {len(ds)} entries for {m} samples (closed={closed})")
+    v_lim = curvature_speed_limit_mps(kappa, limits)
+    if v_limit_mps is not None:
+        v_lim = np.minimum(v_lim, np.asarray(v_limit_mps, np.float64))
+    if closed:
+        i0 = int(np.argmin(v_lim))
+        order = np.r_[np.arange(i0, m), np.arange(0, i0), i0]
+        k = kappa[order]
+        vl = v_lim[order]
+        d = np.r_[ds[i0:], ds[:i0]]
+        fwd = _pass(vl, k, d, limits.drive_mps2, limits.lateral_mps2, vl[0])
+        bwd = _pass(vl[::-1], k[::-1], d[::-1], limits.brake_mps2, limits.lateral_mps2,
+                    vl[-1])[::-1]
+        v_rolled = np.minimum(fwd, bwd)[:-1]
+        v = np.empty(m)
+        v[order[:-1]] = v_rolled
+        return v
+    v0 = v_lim[0] if v_start_mps is None else v_start_mps
+    v1 = v_lim[-1] if v_end_mps is None else v_end_mps
+    fwd = _pass(v_lim, kappa, ds, limits.drive_mps2, limits.lateral_mps2, v0)
+    bwd = _pass(v_lim[::-1], kappa[::-1], ds[::-1], limits.brake_mps2, limits.lateral_mps2, v1)
+    return np.asarray(np.minimum(fwd, bwd[::-1]), np.float64)
+
+
+def two_level_speed_mps(
+    s_m: ArrayLike,
+    heading_rad: ArrayLike,
+    closed: bool,
+    length_m: float,
+    fast_mps: float,
+    slow_mps: float,
+    turn_rad: float,
+    preview_m: float,
+) -> FloatArray:
+    """Seed 002's speed: ``slow`` where the frame turns by more than ``turn_rad`` over the next
+    ``preview_m``, else ``fast`` (M,) (m/s)."""
+    s = np.asarray(s_m, np.float64)
+    h = np.unwrap(np.asarray(heading_rad, np.float64))
+    if closed:
+        total_turn = h[-1] - h[0] + _wrap(h[0] - h[-1])
+        s_ext = np.r_[s, s + length_m]
+        h_ext = np.r_[h, h + total_turn]
+    else:
+        s_ext, h_ext = s, h
+    ahead = np.interp(np.minimum(s + preview_m, s_ext[-1]), s_ext, h_ext)
+    turn = np.abs(ahead - h)
+    return np.where(turn > turn_rad, slow_mps, fast_mps).astype(np.float64)
+
+
+def _wrap(a: float) -> float:
+    return float((a + math.pi) % (2.0 * math.pi) - math.pi)
+
+
+def lap_time_s(speed_mps: ArrayLike, ds_m: ArrayLike, closed: bool = True) -> float:
+    """Time (s) to drive the samples at ``speed_mps`` with constant acceleration between them."""
+    v = np.asarray(speed_mps, np.float64)
+    ds = np.asarray(ds_m, np.float64)
+    v_next = np.r_[v[1:], v[:1]] if closed else v[1:]
+    mean = np.maximum(0.5 * (v[: len(ds)] + v_next[: len(ds)]), 1e-6)
+    return float(np.sum(ds / mean))
+
+
+def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig) -> float:
+    """Friction-limited minimum lap time (s) along a closed centreline (N, 2) (m).
+
+    A point mass with the car's lateral, drive and brake limits and top speed (no safety factor)
+    on the centreline's baseframe (a periodic spline, resampled every 1 m and lightly smoothed as
+    the planner does), on a flying lap.
+    """
+    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
+
+    frame = SplineBaseframe(centreline_xy, closed=True, resample_m=1.0, smoothing_m=1.0,
+                            step_m=0.5)
+    limits = SpeedLimits.from_car(car)
+    ds = np.full(len(frame.s_m), frame.step_m)
+    v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=True)
+    return lap_time_s(v, ds, closed=True)
