@@ -87,6 +87,8 @@ class UkfConfig:
     gnss_speed_sigma_mps: float = 0.08
     gnss_min_speed_mps: float = 1.0
     """Seed 001: GNSS velocity and track are fused only above this speed."""
+    gnss_antenna_x_m: float = 0.0
+    """GNSS antenna ahead of the vehicle origin (m): its velocity has a yaw-rate component."""
     gnss_track_sigma_floor_rad: float = 0.01
     gnss_velocity_gate_sigma: float = 5.0
     cone_sigma_m: float = 0.05

@@ -1,0 +1,481 @@
+"""UKF localisation of seed 001 (KTH): state (x, y, yaw, vx, vy, yaw rate), IMU prediction.
+
+State ``x`` (6,): world position x_m, y_m, yaw_rad, vehicle-frame velocity vx_mps (forward),
+vy_mps (left) at the vehicle origin (rear axle), yaw_rate_radps. Covariance ``P`` (6, 6).
+
+Prediction (seed 001, algorithm 2) with 13 sigma points (n = 6), vectorised with numpy; the IMU's
+specific force is the input. Two corrections to the seed's model: the velocity derivatives carry
+the rotating-frame terms (``dvx = ax + w vy``, ``dvy = ay - w vx``; the seed writes
+``vy += ay dt`` from vx), and the IMU's lever arm ``car.imu_x_m`` is removed (centripetal
+``-w^2 r`` on x). The yaw rate follows the seed's blend
+``w = nu w + (1 - nu) gyro``. While the car stands still at the start, the IMU is averaged for
+its gyro and accelerometer biases (a static calibration) and the state is held at rest.
+
+Updates (seed 001, II.B), each switchable (:class:`mapper.config.UkfConfig`) and each with a
+Mahalanobis rejection as robot_localization (``*_gate_sigma`` in sigma units; counted in
+``stats``):
+
+- odometry: (vx, yaw rate) from the rear wheels (or the steering angle);
+- GNSS position (x, y) in the world frame;
+- GNSS velocity and track, above ``gnss_min_speed_mps`` only: z = (course, speed) with the
+  unscented transform of h(x) = (yaw + atan2(vy + w a, vx), |(vx, vy + w a)|), a = antenna offset;
+- cones against a known map in the seed's *position form*: each detection d paired with its map
+  cone m gives the car's position z = m - R(yaw_hat) d; the update is masked to the position
+  (seed 001: "only the position is updated"), with the gain computed from the linearisation
+  H = [I, dR/dyaw d] so that the yaw uncertainty is accounted for, and the covariance updated in
+  Joseph form (exact for the masked, sub-optimal gain). One batched update per sweep.
+- a zero lateral speed pseudo-measurement at the rear axle (seed 001: "the lateral speed will be
+  assumed to be zero"), at most every 20 ms.
+
+Measurement models other than GNSS velocity are linear in the state; the unscented transform of a
+linear function is exact, so those updates use H directly (the same result without sigma points).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from common.config import CarConfig
+from common.conventions import wrap_angle
+from common.messages import (
+    ConeDetection,
+    ConeMap,
+    ImuSample,
+    PoseEstimate,
+    SteeringAngle,
+    WheelSpeeds,
+)
+from mapper.config import UkfConfig
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+N_STATE = 6
+IX, IY, IYAW, IVX, IVY, IW = range(N_STATE)
+
+
+class UkfLocaliser:
+    """Seed 001's UKF. ``stats[sensor][outcome]`` counts applied / rejected / skipped updates."""
+
+    def __init__(self, config: UkfConfig, car: CarConfig,
+                 initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        self.config = config
+        self.car = car
+        n = N_STATE
+        lam = config.alpha**2 * (n + config.kappa) - n
+        self._scale = math.sqrt(n + lam)
+        self.wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
+        self.wc = self.wm.copy()
+        self.wm[0] = lam / (n + lam)
+        self.wc[0] = self.wm[0] + (1.0 - config.alpha**2 + config.beta)
+        self.x = np.zeros(n)
+        self.P = np.zeros((n, n))
+        self.t_s: float | None = None
+        self.stats: dict[str, Counter[str]] = {}
+        self.gyro_bias_radps = 0.0
+        self.accel_bias_mps2 = np.zeros(2)
+        self._calib_sum = np.zeros(3)
+        self._calib_sq = np.zeros(3)
+        self._calib_n = 0
+        self.calibrating = config.static_calibration
+        self._calib_ref: FloatArray | None = None
+        self._last_lateral_s = -math.inf
+        self._tree: cKDTree | None = None
+        self._tree_map: ConeMap | None = None
+        self.reset(initial_pose)
+
+    # -- state --------------------------------------------------------------------------------
+
+    def reset(self, pose: tuple[float, float, float] | PoseEstimate,
+              covariance: FloatArray | None = None) -> None:
+        """Start again at ``pose`` (x_m, y_m, yaw_rad) or a :class:`PoseEstimate`."""
+        cfg = self.config
+        self.x = np.zeros(N_STATE)
+        p = np.diag([cfg.initial_position_sigma_m**2, cfg.initial_position_sigma_m**2,
+                     cfg.initial_yaw_sigma_rad**2, cfg.initial_velocity_sigma_mps**2,
+                     cfg.initial_velocity_sigma_mps**2, cfg.gyro_sigma_radps**2])
+        if isinstance(pose, PoseEstimate):
+            self.x[:] = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps,
+                         pose.yaw_rate_radps)
+            if np.all(np.isfinite(pose.covariance)) and np.any(pose.covariance):
+                p[:3, :3] = pose.covariance
+            self.t_s = pose.timestamp_s
+        else:
+            self.x[:3] = pose
+        if covariance is not None:
+            p = np.array(covariance, np.float64)
+        self.P = 0.5 * (p + p.T)
+
+    def count(self, sensor: str, outcome: str) -> None:
+        """Count one measurement's outcome (applied, rejected, skipped_...)."""
+        self.stats.setdefault(sensor, Counter())[outcome] += 1
+
+    def pose(self) -> PoseEstimate:
+        """The current estimate as a :class:`PoseEstimate` (covariance over x, y, yaw)."""
+        x = self.x
+        return PoseEstimate(
+            timestamp_s=self.t_s if self.t_s is not None else 0.0,
+            x_m=float(x[IX]), y_m=float(x[IY]), yaw_rad=wrap_angle(float(x[IYAW])),
+            vx_mps=float(x[IVX]), vy_mps=float(x[IVY]), yaw_rate_radps=float(x[IW]),
+            covariance=self.P[:3, :3].copy(),
+        )
+
+    # -- sigma points -------------------------------------------------------------------------
+
+    def _sigma_points(self) -> FloatArray:
+        """(13, 6) sigma points around x."""
+        try:
+            s = np.linalg.cholesky(self.P)
+        except np.linalg.LinAlgError:
+            w, v = np.linalg.eigh(0.5 * (self.P + self.P.T))
+            s = v * np.sqrt(np.maximum(w, 1e-12))
+        s = self._scale * s
+        chi = np.empty((2 * N_STATE + 1, N_STATE))
+        chi[0] = self.x
+        chi[1:N_STATE + 1] = self.x + s.T
+        chi[N_STATE + 1:] = self.x - s.T
+        return chi
+
+    def _mean_cov(self, chi: FloatArray,
+                  angle_cols: Sequence[int]) -> tuple[FloatArray, FloatArray]:
+        """Weighted mean and covariance of points (13, m); angles averaged about point 0."""
+        dev_ref = chi.copy()
+        for c in angle_cols:
+            dev_ref[:, c] = chi[0, c] + _wrap(chi[:, c] - chi[0, c])
+        mean = self.wm @ dev_ref
+        d = dev_ref - mean
+        return mean, (d.T * self.wc) @ d
+
+    # -- prediction ---------------------------------------------------------------------------
+
+    def _calibrate(self, imu: ImuSample) -> bool:
+        """Static calibration: True while the car still stands (sample absorbed)."""
+        cfg = self.config
+        v = np.array([imu.gyro_z_radps, imu.accel_x_mps2, imu.accel_y_mps2])
+        if self._calib_ref is None:
+            self._calib_ref = v.copy()
+        mean = self._calib_sum / self._calib_n if self._calib_n else self._calib_ref
+        moving = (abs(v[0] - mean[0]) > cfg.static_gyro_threshold_radps
+                  or float(np.hypot(v[1] - mean[1], v[2] - mean[2]))
+                  > cfg.static_accel_threshold_mps2)
+        if moving:
+            self.calibrating = False
+            if self._calib_n >= cfg.static_min_samples:
+                mean = self._calib_sum / self._calib_n
+                self.gyro_bias_radps = float(mean[0])
+                self.accel_bias_mps2 = mean[1:].copy()
+                log.info("IMU static calibration from %d samples: gyro bias %.5f rad/s, "
+                         "accel bias (%.4f, %.4f) m/s^2", self._calib_n, self.gyro_bias_radps,
+                         *self.accel_bias_mps2)
+            else:
+                log.info("IMU static calibration skipped: car moved after %d samples",
+                         self._calib_n)
+            return False
+        self._calib_sum += v
+        self._calib_n += 1
+        return True
+
+    def notify_moving(self) -> None:
+        """Odometry saw motion: end the static calibration at once."""
+        if self.calibrating:
+            self.calibrating = False
+            cfg = self.config
+            if self._calib_n >= cfg.static_min_samples:
+                mean = self._calib_sum / self._calib_n
+                self.gyro_bias_radps = float(mean[0])
+                self.accel_bias_mps2 = mean[1:].copy()
+
+    def predict(self, imu: ImuSample) -> None:
+        """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2)."""
+        cfg = self.config
+        t = imu.timestamp_s
+        if self.t_s is None:
+            self.t_s = t
+            return
+        dt = t - self.t_s
+        if not math.isfinite(dt) or dt <= 0.0:
+            self.count("imu", "skipped_old")
+            return
+        self.t_s = t
+        if self.calibrating and self._calibrate(imu):
+            self.x[IVX:] = 0.0
+            return
+        dt = min(dt, cfg.max_predict_dt_s)
+        gz = imu.gyro_z_radps - self.gyro_bias_radps
+        ax = imu.accel_x_mps2 - self.accel_bias_mps2[0]
+        ay = imu.accel_y_mps2 - self.accel_bias_mps2[1]
+        if cfg.imu_lever_arm:
+            # Centripetal term only: the tangential one (dw/dt r) would need a differentiated
+            # gyro, noisier than the term itself; vy is held by the lateral constraint anyway.
+            ax += gz * gz * self.car.imu_x_m
+        self.predict_input(ax, ay, gz, dt)
+        self.count("imu", "applied")
+        if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
+            self._last_lateral_s = t
+            self._update_linear("lateral", np.zeros(1), _row(IVY),
+                                np.array([[cfg.lateral_velocity_sigma_mps**2]]), gate=math.inf)
+
+    def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
+        """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro."""
+        cfg = self.config
+        chi = self._sigma_points()
+        x, y, yaw, vx, vy, w = chi.T
+        c, s = np.cos(yaw), np.sin(yaw)
+        nu = cfg.yaw_rate_blend_nu
+        out = np.empty_like(chi)
+        out[:, IX] = x + (vx * c - vy * s) * dt_s
+        out[:, IY] = y + (vx * s + vy * c) * dt_s
+        out[:, IYAW] = yaw + w * dt_s
+        out[:, IVX] = vx + (ax_mps2 + w * vy) * dt_s
+        out[:, IVY] = vy + (ay_mps2 - w * vx) * dt_s
+        out[:, IW] = nu * w + (1.0 - nu) * gyro_radps
+        mean, cov = self._mean_cov(out, (IYAW,))
+        q_acc = (cfg.accel_sigma_mps2**2 * dt_s + cfg.accel_bias_sigma_mps2**2) * dt_s
+        q = np.array([
+            1e-6 * dt_s,
+            1e-6 * dt_s,
+            cfg.gyro_bias_sigma_radps**2 * dt_s,
+            q_acc,
+            q_acc,
+            (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 + nu**2 * 1e-4 * dt_s,
+        ])
+        mean[IYAW] = wrap_angle(float(mean[IYAW]))
+        self.x = mean
+        cov[np.diag_indices(N_STATE)] += q
+        self.P = 0.5 * (cov + cov.T)
+
+    # -- updates ------------------------------------------------------------------------------
+
+    def _update_linear(self, sensor: str, y: FloatArray, H: FloatArray, R: FloatArray,
+                       gate: float, mask: Sequence[int] | None = None) -> bool:
+        """Kalman update with innovation ``y`` (m,), ``H`` (m, 6), ``R`` (m, m); Mahalanobis
+        gate in sigma units; ``mask`` = state indices the update may change (Joseph form)."""
+        P = self.P
+        PHt = P @ H.T
+        S = H @ PHt + R
+        S = 0.5 * (S + S.T)
+        try:
+            cho = scipy.linalg.cho_factor(S, lower=True, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            self.count(sensor, "rejected_singular")
+            return False
+        Sy = scipy.linalg.cho_solve(cho, y, check_finite=False)
+        d2 = float(y @ Sy)
+        if not math.isfinite(d2) or d2 > gate * gate:
+            self.count(sensor, "rejected")
+            return False
+        K = scipy.linalg.cho_solve(cho, PHt.T, check_finite=False).T
+        if mask is not None:
+            keep = np.zeros(N_STATE, bool)
+            keep[list(mask)] = True
+            K[~keep] = 0.0
+            self.x = self.x + K @ y
+            ikh = np.eye(N_STATE) - K @ H
+            P = ikh @ P @ ikh.T + K @ R @ K.T
+        else:
+            self.x = self.x + K @ y
+            P = P - K @ (H @ P)
+        self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
+        self.P = 0.5 * (P + P.T)
+        self.count(sensor, "applied")
+        return True
+
+    def _update_unscented(self, sensor: str, z: FloatArray,
+                          h: Callable[[FloatArray], FloatArray], R: FloatArray,
+                          angle_rows: Sequence[int], gate: float) -> bool:
+        """Seed 001's unscented update (alg. 1, lines 9-18) for a nonlinear ``h``."""
+        chi = self._sigma_points()
+        Z = h(chi)
+        z_hat, S = self._mean_cov(Z, angle_rows)
+        S = S + R
+        dx = chi - self.x
+        dx[:, IYAW] = _wrap(dx[:, IYAW])
+        dz = Z - z_hat
+        for r in angle_rows:
+            dz[:, r] = _wrap(dz[:, r])
+        Pxz = (dx.T * self.wc) @ dz
+        y = z - z_hat
+        for r in angle_rows:
+            y[r] = wrap_angle(float(y[r]))
+        try:
+            cho = scipy.linalg.cho_factor(S, lower=True, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            self.count(sensor, "rejected_singular")
+            return False
+        d2 = float(y @ scipy.linalg.cho_solve(cho, y, check_finite=False))
+        if not math.isfinite(d2) or d2 > gate * gate:
+            self.count(sensor, "rejected")
+            return False
+        K = scipy.linalg.cho_solve(cho, Pxz.T, check_finite=False).T
+        self.x = self.x + K @ y
+        self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
+        P = self.P - K @ S @ K.T
+        self.P = 0.5 * (P + P.T)
+        self.count(sensor, "applied")
+        return True
+
+    def update_odometry(self, ws: WheelSpeeds, steer: SteeringAngle | None = None) -> bool:
+        """Seed 001's odometry model: z = (vx, yaw rate) from the wheels (and steering)."""
+        cfg = self.config
+        if not cfg.use_odometry:
+            return False
+        values = (ws.rear_left_mps, ws.rear_right_mps, ws.front_left_mps, ws.front_right_mps)
+        if not all(math.isfinite(v) for v in values):
+            self.count("odometry", "rejected_invalid")
+            return False
+        if self.calibrating and max(abs(v) for v in values) > 0.05:
+            self.notify_moving()
+        v = ws.mean_rear_mps
+        source = cfg.odometry_yaw_rate_source
+        if source == "steering" and steer is not None and math.isfinite(steer.angle_rad):
+            w = v * math.tan(steer.angle_rad) / self.car.wheelbase_m
+        elif source == "rear_wheels":
+            w = (ws.rear_right_mps - ws.rear_left_mps) / self.car.track_width_m
+        else:
+            w = math.nan
+        if math.isfinite(w):
+            H = np.zeros((2, N_STATE))
+            H[0, IVX] = 1.0
+            H[1, IW] = 1.0
+            y = np.array([v - self.x[IVX], w - self.x[IW]])
+            R = np.diag([cfg.odometry_speed_sigma_mps**2, cfg.odometry_yaw_rate_sigma_radps**2])
+        else:
+            H = _row(IVX)
+            y = np.array([v - self.x[IVX]])
+            R = np.array([[cfg.odometry_speed_sigma_mps**2]])
+        return self._update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
+
+    def update_gnss_position(self, xy_world_m: FloatArray, cov: FloatArray | None = None) -> bool:
+        """Seed 001's GNSS pose model: z = (x, y) in the world frame, ``cov`` (2, 2) or the
+        configured sigma."""
+        cfg = self.config
+        if not cfg.use_gnss_position:
+            return False
+        z = np.asarray(xy_world_m, np.float64).reshape(2)
+        if not np.all(np.isfinite(z)):
+            self.count("gnss_position", "rejected_invalid")
+            return False
+        R = np.eye(2) * cfg.gnss_position_sigma_m**2 if cov is None else np.asarray(cov)
+        H = np.zeros((2, N_STATE))
+        H[0, IX] = 1.0
+        H[1, IY] = 1.0
+        return self._update_linear("gnss_position", z - self.x[:2], H, R,
+                                   cfg.gnss_position_gate_sigma)
+
+    def update_gnss_velocity(self, speed_mps: float, course_world_rad: float,
+                             speed_sigma_mps: float | None = None) -> bool:
+        """Seed 001's GNSS twist model: speed and track (course over ground, world yaw).
+
+        Only above ``gnss_min_speed_mps``; the track's variance is the seed's
+        ``sigma_v^2 / v^2`` (floored)."""
+        cfg = self.config
+        if not cfg.use_gnss_velocity:
+            return False
+        if not (math.isfinite(speed_mps) and math.isfinite(course_world_rad)):
+            self.count("gnss_velocity", "rejected_invalid")
+            return False
+        if speed_mps < cfg.gnss_min_speed_mps:
+            self.count("gnss_velocity", "skipped_slow")
+            return False
+        sv = cfg.gnss_speed_sigma_mps if speed_sigma_mps is None else speed_sigma_mps
+        s_track = max(sv / speed_mps, cfg.gnss_track_sigma_floor_rad)
+        a = cfg.gnss_antenna_x_m
+
+        def h(chi: FloatArray) -> FloatArray:
+            vy = chi[:, IVY] + chi[:, IW] * a
+            return np.stack([chi[:, IYAW] + np.arctan2(vy, chi[:, IVX]),
+                             np.hypot(chi[:, IVX], vy)], axis=1)
+
+        z = np.array([course_world_rad, speed_mps])
+        R = np.diag([s_track**2, sv**2])
+        return self._update_unscented("gnss_velocity", z, h, R, (0,),
+                                      cfg.gnss_velocity_gate_sigma)
+
+    def update_cones_on_map(self, cones: Sequence[ConeDetection], cone_map: ConeMap,
+                            cones_xy_m: FloatArray | None = None) -> int:
+        """Seed 001's cones model against a known map; returns how many cones were applied.
+
+        ``cones`` are vehicle-frame detections (their positions may be given motion-compensated
+        as ``cones_xy_m`` (N, 2)); each is paired with the nearest map cone within
+        ``cone_association_m`` of its predicted world position, gated one by one (Mahalanobis),
+        then all go in one batched, position-masked update.
+        """
+        cfg = self.config
+        if not cfg.use_cones or len(cone_map) == 0 or not cones:
+            return 0
+        if abs(self.x[IW]) > cfg.cone_max_yaw_rate_radps:
+            self.count("cones", "skipped_turning")
+            return 0
+        if self._tree_map is not cone_map:
+            self._tree = cKDTree(cone_map.xy_m)
+            self._tree_map = cone_map
+        assert self._tree is not None
+        d = (np.array([(c.x_m, c.y_m) for c in cones], np.float64) if cones_xy_m is None
+             else np.asarray(cones_xy_m, np.float64).reshape(-1, 2))
+        yaw = float(self.x[IYAW])
+        c, s = math.cos(yaw), math.sin(yaw)
+        rot_d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
+        predicted = rot_d + self.x[:2]
+        dist, idx = self._tree.query(predicted, k=1, distance_upper_bound=cfg.cone_association_m)
+        paired = np.isfinite(dist)
+        if not np.any(paired):
+            self.count("cones", "unassociated")
+            return 0
+        n_unpaired = int(np.count_nonzero(~paired))
+        if n_unpaired:
+            self.stats.setdefault("cones", Counter())["unassociated"] += n_unpaired
+        m = cone_map.xy_m[idx[paired]]
+        rd = rot_d[paired]
+        z = m - rd  # seed 001's position form: where the car is, seen from each cone
+        y_all = z - self.x[:2]
+        # With m = p + R(yaw) d + noise: z - p_hat ~ (p - p_hat) + J (yaw - yaw_hat), where
+        # J = dR/dyaw d = (-rd_y, rd_x): H = [I, J] on (x, y, yaw).
+        J = np.stack([-rd[:, 1], rd[:, 0]], axis=1)
+        R_each = cfg.cone_sigma_m**2 * np.eye(2) + cone_map.covariance[idx[paired]]
+        P3 = self.P[:3, :3]
+        accepted = []
+        for i in range(z.shape[0]):
+            Hi = np.array([[1.0, 0.0, J[i, 0]], [0.0, 1.0, J[i, 1]]])
+            Si = Hi @ P3 @ Hi.T + R_each[i]
+            yi = y_all[i]
+            d2 = float(yi @ np.linalg.solve(Si, yi))
+            if d2 <= cfg.cone_gate_sigma**2:
+                accepted.append(i)
+            else:
+                self.count("cones", "rejected")
+        if not accepted:
+            return 0
+        k = len(accepted)
+        H = np.zeros((2 * k, N_STATE))
+        R = np.zeros((2 * k, 2 * k))
+        for j, i in enumerate(accepted):
+            H[2 * j, IX] = 1.0
+            H[2 * j + 1, IY] = 1.0
+            H[2 * j, IYAW] = J[i, 0]
+            H[2 * j + 1, IYAW] = J[i, 1]
+            R[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R_each[i]
+        y = y_all[accepted].reshape(-1)
+        mask = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
+        ok = self._update_linear("cones_batch", y, H, R, gate=math.inf, mask=mask)
+        if ok:
+            self.stats.setdefault("cones", Counter())["applied"] += k
+        return k if ok else 0
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return np.mod(a + math.pi, 2.0 * math.pi) - math.pi
+
+
+def _row(i: int) -> FloatArray:
+    h = np.zeros((1, N_STATE))
+    h[0, i] = 1.0
+    return h
+
