@@ -96,8 +96,11 @@ class CanCodec:
 
     # -- decoding -------------------------------------------------------------------------
 
-    def decode_signals(self, frame: CanFrame) -> tuple[Message, dict[str, Any]] | None:
-        """The DBC message and its physical signal values, or None (rejection counted)."""
+    def decode_signals(self, frame: CanFrame, decode_choices: bool = False
+                       ) -> tuple[Message, dict[str, Any]] | None:
+        """The DBC message and its physical signal values, or None (rejection counted).
+
+        ``decode_choices`` gives value-table entries by name instead of number."""
         message = self._by_id.get(frame.arbitration_id)
         if message is None:
             self.rejects["unknown_id"] += 1
@@ -106,7 +109,7 @@ class CanCodec:
             self.rejects["bad_length"] += 1
             return None
         try:
-            signals = message.decode(bytes(frame.data), decode_choices=False)
+            signals = message.decode(bytes(frame.data), decode_choices=decode_choices)
         except Exception as exc:  # cantools raises several kinds; all mean "bad frame"
             self.rejects["decode_error"] += 1
             logger.debug("cannot decode 0x%03X %s: %s", frame.arbitration_id, frame.data.hex(), exc)
