@@ -11,4 +11,16 @@ class RecordingConfig:
 
     enabled: bool = True
     queue_length: int = 20000
+    """Messages the recorder's queue holds; when it is full, new messages are dropped (counted)."""
     chunk_duration_s: float = 1.0
+    """A chunk is closed (compressed, written, flushed) once it spans this much log time or has
+    been open this long on the wall clock: at most about this much is lost on a hard kill."""
+    chunk_size_bytes: int = 4 * 1024 * 1024
+    """A chunk is also closed when its uncompressed messages reach this size."""
+    foxglove: bool = True
+    """Also write the Foxglove views: /foxglove/scene (foxglove.SceneUpdate) and /foxglove/gps
+    (foxglove.LocationFix)."""
+    foxglove_scene_period_s: float = 0.05
+    """Least log time between two scene updates of the map (0: one per map state)."""
+    stop_timeout_s: float = 10.0
+    """How long close() waits for the writer thread to drain the queue and finish the file."""

@@ -1,0 +1,1 @@
+"""Foxglove's well-known protobuf schemas (``foxglove.SceneUpdate``, ``foxglove.LocationFix``)."""

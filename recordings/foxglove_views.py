@@ -1,0 +1,209 @@
+"""Foxglove views of the stack's messages: ``foxglove.SceneUpdate`` and ``foxglove.LocationFix``.
+
+The recorder writes these next to the stack's own topics so that a recording opens in Foxglove's
+3D and Map panels with no setup. Everything is drawn in the ``world`` frame (the car's start
+pose); cones are truncated cones of their class's size and colour, the car a box with an arrow
+along its heading, the plan a line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+from google.protobuf.duration_pb2 import Duration
+from google.protobuf.timestamp_pb2 import Timestamp
+
+from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan
+from recordings.codec import TrackLike
+from recordings.foxglove import scene_pb2 as fg
+
+WORLD_FRAME = "world"
+GPS_FRAME = "gps"
+
+#: RGBA of each cone colour class.
+CONE_RGBA: dict[int, tuple[float, float, float, float]] = {
+    int(ConeColour.UNKNOWN): (0.6, 0.6, 0.6, 1.0),
+    int(ConeColour.BLUE): (0.1, 0.3, 1.0, 1.0),
+    int(ConeColour.YELLOW): (1.0, 0.85, 0.0, 1.0),
+    int(ConeColour.ORANGE): (1.0, 0.5, 0.0, 1.0),
+    int(ConeColour.BIG_ORANGE): (1.0, 0.35, 0.0, 1.0),
+}
+
+#: (base diameter m, height m) of each cone size class (Formula Student rules).
+CONE_DIMENSIONS_M: dict[int, tuple[float, float]] = {
+    int(ConeSize.UNKNOWN): (0.228, 0.325),
+    int(ConeSize.SMALL): (0.228, 0.325),
+    int(ConeSize.LARGE): (0.285, 0.505),
+}
+
+CAR_RGBA = (0.85, 0.1, 0.1, 0.8)
+PLAN_RGBA = (0.1, 0.9, 0.3, 1.0)
+BASEFRAME_RGBA = (0.9, 0.9, 0.9, 0.6)
+TRUTH_RGBA_ALPHA = 0.35
+
+
+def timestamp(t_s: float) -> Timestamp:
+    """A protobuf Timestamp for ``t_s`` seconds on the run's clock (nanosecond rounding)."""
+    ns = round(t_s * 1e9)
+    return Timestamp(seconds=ns // 1_000_000_000, nanos=ns % 1_000_000_000)
+
+
+def _color(rgba: tuple[float, float, float, float], alpha: float | None = None) -> fg.Color:
+    r, g, b, a = rgba
+    return fg.Color(r=r, g=g, b=b, a=a if alpha is None else alpha)
+
+
+def _pose(x_m: float, y_m: float, z_m: float = 0.0, yaw_rad: float = 0.0) -> fg.Pose:
+    half_yaw = 0.5 * yaw_rad
+    return fg.Pose(
+        position=fg.Vector3(x=x_m, y=y_m, z=z_m),
+        orientation=fg.Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)),
+    )
+
+
+def _cones(
+    xy_m: np.ndarray, colours: Iterable[int], sizes: Iterable[int], alpha: float | None = None
+) -> list[fg.CylinderPrimitive]:
+    out = []
+    for (x, y), colour, size in zip(xy_m.tolist(), colours, sizes, strict=True):
+        diameter_m, height_m = CONE_DIMENSIONS_M.get(int(size), CONE_DIMENSIONS_M[0])
+        out.append(
+            fg.CylinderPrimitive(
+                pose=_pose(x, y, 0.5 * height_m),
+                size=fg.Vector3(x=diameter_m, y=diameter_m, z=height_m),
+                bottom_scale=1.0,
+                top_scale=0.15,
+                color=_color(CONE_RGBA.get(int(colour), CONE_RGBA[0]), alpha),
+            )
+        )
+    return out
+
+
+def _line(
+    xy_m: np.ndarray, rgba: tuple[float, float, float, float], thickness_m: float, loop: bool
+) -> fg.LinePrimitive:
+    return fg.LinePrimitive(
+        type=fg.LinePrimitive.LINE_LOOP if loop else fg.LinePrimitive.LINE_STRIP,
+        pose=_pose(0.0, 0.0),
+        thickness=thickness_m,
+        scale_invariant=False,
+        points=[fg.Point3(x=x, y=y, z=0.02) for x, y in xy_m.tolist()],
+        color=_color(rgba),
+    )
+
+
+def map_scene(
+    state: MapState,
+    car_length_m: float = 2.9,
+    car_width_m: float = 1.4,
+    rear_overhang_m: float = 0.65,
+) -> fg.SceneUpdate:
+    """Cones (entity ``cones``) and the estimated car (entity ``car``) of one map state."""
+    stamp = timestamp(state.timestamp_s)
+    cones = state.cones
+    cone_entity = fg.SceneEntity(
+        timestamp=stamp,
+        frame_id=WORLD_FRAME,
+        id="cones",
+        lifetime=Duration(),
+        cylinders=_cones(cones.xy_m, cones.colour.tolist(), cones.size.tolist()),
+        metadata=[
+            fg.KeyValuePair(key="count", value=str(len(cones))),
+            fg.KeyValuePair(key="loop_closed", value=str(state.loop_closed).lower()),
+            fg.KeyValuePair(key="backend", value=state.backend),
+        ],
+    )
+    pose = state.pose
+    c, s = math.cos(pose.yaw_rad), math.sin(pose.yaw_rad)
+    centre_ahead_m = 0.5 * car_length_m - rear_overhang_m  # box centre ahead of the rear axle
+    car_entity = fg.SceneEntity(
+        timestamp=stamp,
+        frame_id=WORLD_FRAME,
+        id="car",
+        lifetime=Duration(),
+        cubes=[
+            fg.CubePrimitive(
+                pose=_pose(pose.x_m + centre_ahead_m * c, pose.y_m + centre_ahead_m * s, 0.3,
+                           pose.yaw_rad),
+                size=fg.Vector3(x=car_length_m, y=car_width_m, z=0.6),
+                color=_color(CAR_RGBA),
+            )
+        ],
+        arrows=[
+            fg.ArrowPrimitive(
+                pose=_pose(pose.x_m, pose.y_m, 0.7, pose.yaw_rad),
+                shaft_length=max(1.0, 0.5 * pose.speed_mps),
+                shaft_diameter=0.1,
+                head_length=0.4,
+                head_diameter=0.3,
+                color=_color(CAR_RGBA, 1.0),
+            )
+        ],
+        metadata=[fg.KeyValuePair(key="speed_mps", value=f"{pose.speed_mps:.3f}")],
+    )
+    return fg.SceneUpdate(entities=[cone_entity, car_entity])
+
+
+def plan_scene(plan: Plan) -> fg.SceneUpdate:
+    """The chosen manoeuvre and the baseframe of a plan (entity ``plan``)."""
+    lines = []
+    if plan.baseframe is not None and len(plan.baseframe.x_m) > 1:
+        bf = plan.baseframe
+        lines.append(_line(np.column_stack([bf.x_m, bf.y_m]), BASEFRAME_RGBA, 0.05, bf.closed))
+    if len(plan.manoeuvre) > 1:
+        m = plan.manoeuvre
+        lines.append(_line(np.column_stack([m.x_m, m.y_m]), PLAN_RGBA, 0.15, False))
+    entity = fg.SceneEntity(
+        timestamp=timestamp(plan.timestamp_s),
+        frame_id=WORLD_FRAME,
+        id="plan",
+        lifetime=Duration(),
+        lines=lines,
+        metadata=[fg.KeyValuePair(key="target_speed_mps", value=f"{plan.target_speed_mps:.3f}")],
+    )
+    return fg.SceneUpdate(entities=[entity])
+
+
+def track_scene(track: TrackLike, t_s: float) -> fg.SceneUpdate:
+    """The true cones and centreline of a simulated track, faint (entity ``truth_track``)."""
+    cones_xy = np.asarray(track.cones_xy_m, dtype=np.float64).reshape(-1, 2)
+    centreline = np.asarray(track.centreline_xy_m, dtype=np.float64).reshape(-1, 2)
+    entity = fg.SceneEntity(
+        timestamp=timestamp(t_s),
+        frame_id=WORLD_FRAME,
+        id="truth_track",
+        lifetime=Duration(),
+        cylinders=_cones(
+            cones_xy,
+            np.asarray(track.colours).tolist(),
+            np.asarray(track.sizes).tolist(),
+            alpha=TRUTH_RGBA_ALPHA,
+        ),
+        lines=[_line(centreline, BASEFRAME_RGBA, 0.03, bool(track.is_loop))]
+        if len(centreline) > 1
+        else [],
+        metadata=[fg.KeyValuePair(key="name", value=str(track.name))],
+    )
+    return fg.SceneUpdate(entities=[entity])
+
+
+#: Assumed user-equivalent range error (m) turning HDOP into a horizontal sigma.
+UERE_M = 2.5
+
+
+def location_fix(fix: GpsFix) -> fg.LocationFix:
+    """A ``foxglove.LocationFix`` for a GNSS fix (covariance approximated from HDOP)."""
+    message = fg.LocationFix(
+        frame_id=GPS_FRAME,
+        timestamp=timestamp(fix.timestamp_s),
+        latitude=fix.lat_deg,
+        longitude=fix.lon_deg,
+        altitude=fix.altitude_m if math.isfinite(fix.altitude_m) else 0.0,
+    )
+    if math.isfinite(fix.hdop) and fix.hdop > 0.0:
+        var_h = (fix.hdop * UERE_M) ** 2
+        message.position_covariance.extend([var_h, 0, 0, 0, var_h, 0, 0, 0, 4.0 * var_h])
+        message.position_covariance_type = fg.LocationFix.APPROXIMATED
+    return message

@@ -1,0 +1,341 @@
+"""The recorder: a listener writing the stack's messages to an MCAP file of protobuf messages.
+
+The caller's side (:meth:`Recorder.write`, :meth:`Recorder.write_raw`, ...) only puts a reference
+to the (immutable) message on a bounded queue and returns: it never blocks and never converts.
+One writer thread converts with :mod:`recordings.codec`, serialises, and writes through ``mcap``'s
+``Writer`` with each protobuf schema registered once (``mcap_protobuf``'s ``register_schema``).
+When the queue is full the message is dropped, counted in :attr:`Recorder.dropped` and logged.
+
+Chunks are zstd-compressed with CRCs. The writer closes a chunk itself (``Writer.flush``, which
+also flushes the file) once it spans ``chunk_duration_s`` of log time, has been open that long on
+the wall clock, or holds ``chunk_size_bytes``: a process killed with SIGKILL leaves a file that
+:mod:`recordings.reader` reads up to its last complete chunk, about a second before the kill.
+The wall clock is used only for that flushing; it never changes what is written.
+
+Log times are nanoseconds on the run's clock: ``round(log_time_s * 1e9)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+from google.protobuf.message import Message as ProtoMessage
+from mcap.well_known import MessageEncoding
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
+from mcap_protobuf.schema import register_schema
+
+from common.config import CarConfig
+from common.errors import RecordingError
+from common.messages import CanFrame, GpsFix, MapState, Plan, RawBytes
+from recordings import foxglove_views, topics
+from recordings.codec import is_track, to_proto
+from recordings.config import RecordingConfig
+
+log = logging.getLogger(__name__)
+
+LIBRARY = "fsd-stack recordings"
+#: Never let mcap close a chunk on its own: the recorder decides (size, log time, wall time).
+_NO_AUTO_CHUNK = 1 << 62
+
+
+def to_ns(t_s: float) -> int:
+    """Log time in integer nanoseconds for ``t_s`` seconds (``round(t_s * 1e9)``)."""
+    return round(t_s * 1e9)
+
+
+@dataclass(frozen=True, slots=True)
+class _Item:
+    kind: str  # "msg", "proto", "gps", "meta"
+    topic: str
+    payload: Any
+    log_time_s: float
+
+
+class Recorder:
+    """Write the stack's messages to ``path`` (MCAP, protobuf); a listener and context manager.
+
+    ``config`` gives the queue length and chunking; ``car`` the car's box drawn in the Foxglove
+    scene; ``metadata`` is written once as an MCAP metadata record named ``"fsd"`` (e.g. the
+    track, the seed, the configuration as TOML).
+
+    Thread-safe: any thread may call the ``write*`` methods. After :meth:`close` they are ignored
+    (counted in :attr:`dropped`).
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        config: RecordingConfig | None = None,
+        car: CarConfig | None = None,
+        metadata: Mapping[str, str] | None = None,
+    ) -> None:
+        self.path = Path(path)
+        self.config = config if config is not None else RecordingConfig()
+        self._car = car if car is not None else CarConfig()
+        self.dropped = 0
+        """Messages not recorded because the queue was full (or the recorder closed)."""
+        self.written = 0
+        """Messages written to the file (including the Foxglove views)."""
+        self.errors = 0
+        """Messages that could not be converted or written (each logged)."""
+        self.error: BaseException | None = None
+        """The first write error, if any."""
+        self._lock = threading.Lock()
+        self._closed = False
+        self._next_drop_report = 1
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._stream: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 (closed in _finish)
+        except OSError as exc:
+            raise RecordingError(f"cannot create recording {self.path}: {exc}") from exc
+        self._writer = McapWriter(
+            self._stream,
+            chunk_size=_NO_AUTO_CHUNK,
+            compression=CompressionType.ZSTD,
+            enable_crcs=True,
+        )
+        self._writer.start(profile="", library=LIBRARY)
+        if metadata:
+            self._writer.add_metadata("fsd", {str(k): str(v) for k, v in metadata.items()})
+        self._stream.flush()
+        # Writer-thread state.
+        self._channels: dict[str, tuple[int, str]] = {}  # topic -> (channel id, schema name)
+        self._schemas: dict[str, int] = {}  # schema name -> schema id
+        self._chunk_messages = 0
+        self._chunk_bytes = 0
+        self._chunk_min_ns = 0
+        self._chunk_max_ns = 0
+        self._chunk_opened_wall_s = 0.0
+        self._last_scene_ns: int | None = None
+        self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, self.config.queue_length))
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------------------------------
+    # The caller's side: never blocks
+    # ------------------------------------------------------------------------------------------
+
+    def write(self, topic: str, message: object, log_time_s: float) -> bool:
+        """Queue a :mod:`common.messages` object (or a track) for ``topic`` at ``log_time_s``.
+
+        Returns False when it was dropped (queue full or recorder closed).
+        """
+        return self._put(_Item("msg", topic, message, log_time_s))
+
+    def write_raw(self, raw: RawBytes | CanFrame) -> bool:
+        """Queue a raw unit on its source's topic (see :func:`topics.raw_topic`) at its time."""
+        return self._put(_Item("msg", topics.raw_topic(raw), raw, raw.timestamp_s))
+
+    def write_gps_fix(self, fix: GpsFix) -> bool:
+        """Queue a parsed GNSS fix for ``/foxglove/gps`` (``foxglove.LocationFix``)."""
+        if not self.config.foxglove:
+            return True
+        return self._put(_Item("gps", topics.FOXGLOVE_GPS, fix, fix.timestamp_s))
+
+    def write_proto(self, topic: str, proto: ProtoMessage, log_time_s: float) -> bool:
+        """Queue a protobuf message as it is (its schema is registered on first use)."""
+        return self._put(_Item("proto", topic, proto, log_time_s))
+
+    def add_metadata(self, name: str, data: Mapping[str, str]) -> bool:
+        """Queue an MCAP metadata record (string key-value pairs)."""
+        return self._put(_Item("meta", name, {str(k): str(v) for k, v in data.items()}, 0.0))
+
+    def __call__(self, topic: str, message: object, log_time_s: float) -> bool:
+        """Listener form of :meth:`write`."""
+        return self.write(topic, message, log_time_s)
+
+    def _put(self, item: _Item) -> bool:
+        if not self._closed:
+            try:
+                self._queue.put_nowait(item)
+                return True
+            except queue.Full:
+                pass
+        with self._lock:
+            self.dropped += 1
+            dropped = self.dropped
+            report = dropped >= self._next_drop_report
+            if report:
+                self._next_drop_report *= 2
+        if report:
+            reason = "recorder closed" if self._closed else "queue full"
+            log.warning("recorder dropped %d message(s) so far (%s; last on %s)",
+                        dropped, reason, item.topic)
+        return False
+
+    @property
+    def queued(self) -> int:
+        """Messages waiting for the writer thread."""
+        return self._queue.qsize()
+
+    # ------------------------------------------------------------------------------------------
+    # Closing
+    # ------------------------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Write everything queued, finish the file (summary, footer) and close it.
+
+        Waits at most ``stop_timeout_s`` for the writer thread; what is still queued then is
+        lost (logged). Idempotent.
+        """
+        if self._closed:
+            return
+        self._closed = True
+        self._stop.set()
+        self._thread.join(self.config.stop_timeout_s)
+        if self._thread.is_alive():
+            log.error("recorder thread did not finish within %.1f s; %d message(s) unwritten; "
+                      "%s is left without its summary", self.config.stop_timeout_s,
+                      self._queue.qsize(), self.path)
+            return
+        if self.dropped:
+            log.warning("recorder dropped %d message(s) in total", self.dropped)
+        if self.errors:
+            log.warning("recorder failed to write %d message(s); first error: %s", self.errors,
+                        self.error)
+        log.info("recording %s closed: %d message(s)", self.path, self.written)
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------------------------------
+    # The writer thread
+    # ------------------------------------------------------------------------------------------
+
+    def _run(self) -> None:
+        poll_s = max(0.01, min(0.25, 0.25 * self.config.chunk_duration_s))
+        try:
+            while True:
+                try:
+                    if self._stop.is_set():
+                        item = self._queue.get_nowait()
+                    else:
+                        item = self._queue.get(timeout=poll_s)
+                except queue.Empty:
+                    if self._stop.is_set():
+                        break
+                    self._maybe_close_chunk(None)
+                    continue
+                try:
+                    self._handle(item)
+                except Exception as exc:  # noqa: BLE001 (one bad message must not stop recording)
+                    self._count_error(item, exc)
+        finally:
+            self._finish()
+
+    def _count_error(self, item: _Item, exc: BaseException) -> None:
+        self.errors += 1
+        if self.error is None:
+            self.error = exc
+        if self.errors <= 10 or self.errors & (self.errors - 1) == 0:
+            log.error("recorder could not write a message on %s (%d so far): %s",
+                      item.topic, self.errors, exc)
+
+    def _handle(self, item: _Item) -> None:
+        if item.kind == "meta":
+            self._writer.add_metadata(item.topic, item.payload)
+            return
+        log_ns = to_ns(item.log_time_s)
+        if item.kind == "gps":
+            self._write_proto(item.topic, foxglove_views.location_fix(item.payload), log_ns)
+        elif item.kind == "proto":
+            self._write_proto(item.topic, item.payload, log_ns)
+        else:
+            message = item.payload
+            self._write_proto(item.topic, to_proto(message), log_ns)
+            if self.config.foxglove:
+                self._write_views(message, log_ns)
+        self._maybe_close_chunk(log_ns)
+
+    def _write_views(self, message: object, log_ns: int) -> None:
+        if isinstance(message, MapState):
+            period_ns = to_ns(self.config.foxglove_scene_period_s)
+            if self._last_scene_ns is None or abs(log_ns - self._last_scene_ns) >= period_ns:
+                self._last_scene_ns = log_ns
+                car = self._car
+                scene = foxglove_views.map_scene(
+                    message, car.length_m, car.width_m, car.rear_overhang_m
+                )
+                self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
+        elif isinstance(message, Plan):
+            self._write_proto(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), log_ns)
+        elif is_track(message):
+            scene = foxglove_views.track_scene(message, log_ns * 1e-9)  # type: ignore[arg-type]
+            self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
+
+    def _write_proto(self, topic: str, proto: ProtoMessage, log_ns: int) -> None:
+        name = proto.DESCRIPTOR.full_name
+        channel = self._channels.get(topic)
+        if channel is None:
+            schema_id = self._schemas.get(name)
+            if schema_id is None:
+                schema_id = register_schema(self._writer, type(proto))
+                self._schemas[name] = schema_id
+            channel_id = self._writer.register_channel(
+                topic=topic, message_encoding=MessageEncoding.Protobuf, schema_id=schema_id
+            )
+            channel = (channel_id, name)
+            self._channels[topic] = channel
+        elif channel[1] != name:
+            raise RecordingError(f"topic {topic} carries {channel[1]}, cannot write a {name}")
+        data = proto.SerializeToString()
+        self._writer.add_message(
+            channel_id=channel[0], log_time=log_ns, data=data, publish_time=log_ns
+        )
+        self.written += 1
+        if self._chunk_messages == 0:
+            self._chunk_min_ns = self._chunk_max_ns = log_ns
+            self._chunk_opened_wall_s = time.monotonic()
+        else:
+            self._chunk_min_ns = min(self._chunk_min_ns, log_ns)
+            self._chunk_max_ns = max(self._chunk_max_ns, log_ns)
+        self._chunk_messages += 1
+        self._chunk_bytes += len(data) + 31  # + the message record's header
+
+    def _maybe_close_chunk(self, log_ns: int | None) -> None:
+        if self._chunk_messages == 0:
+            return
+        duration_s = self.config.chunk_duration_s
+        if (
+            self._chunk_bytes >= self.config.chunk_size_bytes
+            or (self._chunk_max_ns - self._chunk_min_ns) * 1e-9 >= duration_s
+            or time.monotonic() - self._chunk_opened_wall_s >= duration_s
+        ):
+            self._close_chunk()
+
+    def _close_chunk(self) -> None:
+        self._writer.flush()  # finalises the chunk and flushes the file
+        self._chunk_messages = 0
+        self._chunk_bytes = 0
+
+    def _finish(self) -> None:
+        try:
+            self._writer.finish()
+        except Exception as exc:  # noqa: BLE001
+            log.error("could not finish recording %s: %s", self.path, exc)
+            if self.error is None:
+                self.error = exc
+        finally:
+            try:
+                self._stream.close()
+            except OSError as exc:
+                log.error("could not close recording %s: %s", self.path, exc)

@@ -1,0 +1,81 @@
+"""Topic names of a recording and the message type each carries.
+
+Raw sensor units (what replay feeds back through the parsers), the stack's outputs, simulation
+ground truth, and two derived topics in Foxglove's own schemas so that a recording opens in
+Foxglove with no setup.
+"""
+
+from __future__ import annotations
+
+from common.messages import (
+    ActuatorCommand,
+    CanFrame,
+    GroundTruth,
+    Health,
+    MapState,
+    Plan,
+    RawBytes,
+)
+from recordings.codec import TrackRecord
+
+# Raw units
+GPS_NMEA = "/gps/nmea"
+IMU_PACKET = "/imu/packet"
+CAN_FRAME = "/can/frame"
+LIDAR_PACKET = "/lidar/packet"
+CAMERA_PACKET = "/camera/packet"
+
+# Outputs of the stack
+MAP_STATE = "/map/state"
+PLAN = "/plan"
+COMMAND = "/command"
+HEALTH = "/health"
+
+# Simulation only
+TRUTH_POSE = "/truth/pose"
+TRUTH_TRACK = "/truth/track"
+
+# Foxglove views (derived; not replayed)
+FOXGLOVE_SCENE = "/foxglove/scene"
+FOXGLOVE_GPS = "/foxglove/gps"
+
+#: Topic of each raw source (``RawBytes.source``); CAN frames go to :data:`CAN_FRAME`.
+RAW_TOPIC_BY_SOURCE: dict[str, str] = {
+    "gps": GPS_NMEA,
+    "imu": IMU_PACKET,
+    "lidar": LIDAR_PACKET,
+    "camera": CAMERA_PACKET,
+}
+
+RAW_TOPICS: tuple[str, ...] = (GPS_NMEA, IMU_PACKET, CAN_FRAME, LIDAR_PACKET, CAMERA_PACKET)
+OUTPUT_TOPICS: tuple[str, ...] = (MAP_STATE, PLAN, COMMAND, HEALTH)
+TRUTH_TOPICS: tuple[str, ...] = (TRUTH_POSE, TRUTH_TRACK)
+FOXGLOVE_TOPICS: tuple[str, ...] = (FOXGLOVE_SCENE, FOXGLOVE_GPS)
+
+#: Message type on each known topic (Foxglove topics carry protobuf messages as they are).
+TOPIC_TYPES: dict[str, type] = {
+    GPS_NMEA: RawBytes,
+    IMU_PACKET: RawBytes,
+    CAN_FRAME: CanFrame,
+    LIDAR_PACKET: RawBytes,
+    CAMERA_PACKET: RawBytes,
+    MAP_STATE: MapState,
+    PLAN: Plan,
+    COMMAND: ActuatorCommand,
+    HEALTH: Health,
+    TRUTH_POSE: GroundTruth,
+    TRUTH_TRACK: TrackRecord,
+}
+
+#: Protobuf schema name on each Foxglove topic.
+FOXGLOVE_SCHEMAS: dict[str, str] = {
+    FOXGLOVE_SCENE: "foxglove.SceneUpdate",
+    FOXGLOVE_GPS: "foxglove.LocationFix",
+}
+
+
+def raw_topic(raw: RawBytes | CanFrame) -> str:
+    """The topic a raw unit is recorded on (``/raw/<source>`` for an unknown source)."""
+    if isinstance(raw, CanFrame):
+        return CAN_FRAME
+    return RAW_TOPIC_BY_SOURCE.get(raw.source, f"/raw/{raw.source}")
