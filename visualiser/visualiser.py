@@ -1,0 +1,174 @@
+"""The Visualiser: renders frames beside the control loop, in its own process.
+
+``submit`` turns the messages into a small :class:`~visualiser.frame_data.FrameData` and puts
+it on a bounded queue without waiting: when the renderer is behind, the frame is dropped and
+counted, so drawing never delays a control tick. The renderer process draws on an off-screen
+pygame Surface and writes PNG files named by the frame's time (``frame_<ms>.png``). Running in a
+process (not a thread) keeps the drawing off the loop's GIL.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+import queue
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from common.config import AppConfig
+from common.messages import ActuatorCommand, GroundTruth, Health, MapState, Plan
+from visualiser.frame_data import FrameData, TrackData, frame_from_messages, track_data
+
+log = logging.getLogger(__name__)
+
+
+def frame_file_name(t_s: float) -> str:
+    """``frame_<milliseconds, 9 digits>.png``: files sort by time."""
+    return f"frame_{int(round(t_s * 1000.0)):09d}.png"
+
+
+class FrameRenderer:
+    """Draws frames on one off-screen Surface and writes them as PNG (synchronous)."""
+
+    def __init__(self, width_px: int, height_px: int, view: str = "track",
+                 follow_span_m: float = 40.0, png_compress_level: int = 1) -> None:
+        os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+        import pygame
+
+        from visualiser import renderer
+
+        self._pygame = pygame
+        self._renderer = renderer
+        self.surface = pygame.Surface((width_px, height_px))
+        self.view_kind = view
+        self.follow_span_m = follow_span_m
+        self.png_compress_level = png_compress_level
+        self.track: TrackData | None = None
+        self.trace: list[tuple[float, float]] = []
+        self._trace_array = np.zeros((0, 2))
+
+    def view_for(self, frame: FrameData) -> Any:
+        """The world-to-pixel transform for this frame (whole track, or following the car)."""
+        from visualiser.transform import WorldToPixel
+
+        w, h = self.surface.get_size()
+        if self.view_kind == "follow":
+            return WorldToPixel.follow(w, h, frame.pose[0], frame.pose[1], self.follow_span_m)
+        parts = [frame.cones_xy_m.reshape(-1, 2), np.array([frame.pose[:2]])]
+        if self.track is not None:
+            parts.append(self.track.cones_xy_m)
+        if len(self._trace_array):
+            parts.append(self._trace_array)
+        return WorldToPixel.fit(w, h, np.concatenate(parts))
+
+    def render(self, frame: FrameData, hud_extra: tuple[str, ...] = ()) -> Any:
+        """Draw ``frame`` (adding its pose to the driven trace); returns the Surface."""
+        self.trace.append((frame.pose[0], frame.pose[1]))
+        self._trace_array = np.asarray(self.trace)
+        self._renderer.draw_frame(self.surface, frame, self.view_for(frame), self.track,
+                                  self._trace_array, hud_extra)
+        return self.surface
+
+    def save_png(self, path: Path) -> None:
+        """Write the Surface as PNG (Pillow, fast zlib level)."""
+        from PIL import Image
+
+        w, h = self.surface.get_size()
+        data = self._pygame.image.tobytes(self.surface, "RGB")
+        Image.frombytes("RGB", (w, h), data).save(path, compress_level=self.png_compress_level)
+
+
+def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view: str,
+                   follow_span_m: float, png_compress_level: int) -> None:
+    """Renderer process: draw and save every frame it is given until ``None`` arrives."""
+    renderer = FrameRenderer(width_px, height_px, view, follow_span_m, png_compress_level)
+    target = Path(out_dir)
+    target.mkdir(parents=True, exist_ok=True)
+    while True:
+        job = jobs.get()
+        if job is None:
+            break
+        kind, payload = job
+        if kind == "track":
+            renderer.track = payload
+            continue
+        try:
+            renderer.render(payload)
+            renderer.save_png(target / frame_file_name(payload.t_s))
+        except Exception:  # a bad frame must not kill the renderer
+            logging.getLogger(__name__).exception("frame at t=%s failed", payload.t_s)
+
+
+class Visualiser:
+    """Renders map frames to ``out_dir`` in a separate process; ``submit`` never blocks."""
+
+    def __init__(self, config: AppConfig, out_dir: Path | str) -> None:
+        vis = config.visualiser
+        self.out_dir = Path(out_dir)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        ctx = mp.get_context("spawn")
+        self._jobs: Any = ctx.Queue(maxsize=max(1, vis.queue_length))
+        self._process = ctx.Process(
+            target=_render_worker, name="visualiser",
+            args=(self._jobs, str(self.out_dir), vis.width_px, vis.height_px, vis.view,
+                  vis.follow_span_m, vis.png_compress_level),
+            daemon=True,
+        )
+        self._process.start()
+        self._track_sent = False
+        self.submitted = 0
+        self.dropped = 0
+        self.config = config
+
+    def submit(
+        self,
+        map_state: MapState,
+        plan: Plan | None = None,
+        command: ActuatorCommand | None = None,
+        truth: GroundTruth | None = None,
+        track: Any = None,
+        health: Health | None = None,
+    ) -> bool:
+        """Queue a frame; returns False (and counts it) when the renderer is behind."""
+        if not self._track_sent and track is not None and self.config.visualiser.show_truth:
+            td: TrackData | None = track_data(track)
+            try:
+                self._jobs.put_nowait(("track", td))
+                self._track_sent = True
+            except queue.Full:
+                pass
+        if not self.config.visualiser.show_truth:
+            truth = None
+        frame = frame_from_messages(map_state, plan, command, truth, health)
+        try:
+            self._jobs.put_nowait(("frame", frame))
+        except queue.Full:
+            self.dropped += 1
+            return False
+        self.submitted += 1
+        return True
+
+    def close(self, timeout_s: float = 60.0) -> None:
+        """Let the renderer finish the queued frames, then stop it."""
+        if not self._process.is_alive():
+            return
+        try:
+            self._jobs.put(None, timeout=timeout_s)
+        except queue.Full:
+            log.warning("visualiser queue stuck: terminating the renderer")
+        self._process.join(timeout_s)
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join(1.0)
+        if self.dropped:
+            log.info("visualiser dropped %d of %d frames", self.dropped,
+                     self.dropped + self.submitted)
+
+    def __enter__(self) -> Visualiser:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
