@@ -1,0 +1,233 @@
+"""LiDAR cone detection in one VLP-16 sweep (seed 000, section 4.2), vectorised with numpy.
+
+Steps, each a few array operations over the sweep:
+
+1. Usable field of view: returns too near, too far, behind the usable azimuth range or inside
+   the car's footprint are dropped (they are the car itself, seed 000 fig 4.1).
+2. Ground removal: with the sensor ``car.lidar_z_m`` above a flat ground, returns lower than
+   ``ground_clearance_m`` above it are ground; returns higher than ``max_point_height_m``
+   cannot be a cone. Only the rest can be cone surfaces.
+3. Surfaces: along each laser ring, in azimuth order, runs of successive returns whose range
+   differs little; a range discontinuity (or an azimuth gap) starts a new surface.
+4. Preliminary filter: a surface narrower than a cone, nearer than ``max_range_m``, of more
+   than one return.
+5. Surfaces whose x-y midpoints are close are merged into preliminary cones.
+6. Cluster filter: more than ``cluster_max_cones`` preliminary cones close together (grass,
+   bushes, barriers) are all removed.
+7. Final filter: seen in at least ``min_layers`` rings, at least ``min_points`` returns, top
+   below ``large_height_m`` (+ tolerance). Size: a top above ``small_height_m`` means large
+   (the seed's rule); a lower top is compared with what each cone size would show on each ring
+   at that range, because with 2 deg between rings the top of a large cone beyond ~7 m falls
+   between two rings. For the same reason a small cone beyond ~5.7 m (mount 0.3 m) is hit by
+   one ring only: a single layer is accepted when no second ring can reach it.
+
+Position: the LiDAR sees the near half of the cone, so the centroid of the returns is pushed
+back along the line of sight by pi/4 times the cone's radius at each return's height (the mean
+depth of a half circle sampled evenly across its width). Each cone is stamped with the mean time
+of its returns (a sweep takes 100 ms) and given in the VEHICLE frame: the sensor frame shifted
+by ``car.lidar_x_m`` forward and ``car.lidar_z_m`` up.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.config import AppConfig
+from common.messages import ConeColour, ConeDetection, ConeSize, LidarCones
+from sensors.velodyne import RING_ELEVATION_DEG
+
+log = logging.getLogger(__name__)
+
+SMALL_CONE_BASE_M = 0.228
+SMALL_CONE_HEIGHT_M = 0.325
+LARGE_CONE_BASE_M = 0.285
+LARGE_CONE_HEIGHT_M = 0.505
+_TAN_RING = np.tan(np.radians(RING_ELEVATION_DEG))
+_N_RINGS = RING_ELEVATION_DEG.shape[0]
+
+
+def cone_radius_m(size: ConeSize, height_m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Radius (m) of a cone of ``size`` at ``height_m`` above the ground (0 above its top)."""
+    if size == ConeSize.LARGE:
+        base, top = LARGE_CONE_BASE_M, LARGE_CONE_HEIGHT_M
+    else:
+        base, top = SMALL_CONE_BASE_M, SMALL_CONE_HEIGHT_M
+    return 0.5 * base * np.clip(1.0 - height_m / top, 0.0, 1.0)
+
+
+class ConeDetector:
+    """Cones in one sweep of points; see the module docstring for the steps."""
+
+    def __init__(self, config: AppConfig) -> None:
+        self.cfg = config.sensors.lidar.detector
+        self.car = config.car
+        self.lidar_x_m = config.car.lidar_x_m
+        self.lidar_z_m = config.car.lidar_z_m
+        self.stats: dict[str, int] = {}
+        """Counts of the last call: points kept at each step, surfaces, preliminary cones."""
+
+    def detect(self, points: NDArray[np.float64], rings: NDArray[np.int64],
+               times_s: NDArray[np.float64], timestamp_s: float) -> LidarCones:
+        """Detect cones in one sweep.
+
+        ``points`` (N, 4): x, y, z (m, sensor frame), intensity; ``rings`` (N,) 0..15 by
+        elevation; ``times_s`` (N,) each return's time; ``timestamp_s`` the sweep's end.
+        Returns cones in the vehicle frame, each stamped with the time it was seen.
+        """
+        cfg = self.cfg
+        n_all = int(points.shape[0])
+        sweep_start = float(times_s.min()) if n_all else math.nan
+        z_ground = points[:, 2] + self.lidar_z_m
+        keep = (z_ground > cfg.ground_clearance_m) & (z_ground < cfg.max_point_height_m)
+        idx = np.flatnonzero(keep)
+        x = points[idx, 0]
+        y = points[idx, 1]
+        r = np.hypot(x, y)
+        bearing = np.arctan2(y, x)
+        xv = x + self.lidar_x_m
+        half_w = 0.5 * self.car.width_m + cfg.car_margin_m
+        on_car = ((xv > -self.car.rear_overhang_m - cfg.car_margin_m)
+                  & (xv < self.car.length_m - self.car.rear_overhang_m + cfg.car_margin_m)
+                  & (np.abs(y) < half_w))
+        ok = ((r > cfg.min_range_m) & (r < cfg.max_range_m + 1.0)
+              & (np.abs(bearing) < math.radians(cfg.fov_half_deg)) & ~on_car)
+        idx = idx[ok]
+        self.stats = {"points": n_all, "non_ground": int(keep.sum()), "usable": int(idx.size)}
+        if idx.size < cfg.min_points:
+            return LidarCones(timestamp_s, (), sweep_start, n_all)
+        x, y, r, bearing = x[ok], y[ok], r[ok], bearing[ok]
+        z = z_ground[idx]
+        ring = rings[idx]
+        t = times_s[idx]
+
+        # --- surfaces: runs along each ring in azimuth order, split at range discontinuities
+        order = np.lexsort((-bearing, ring))
+        x, y, z, r, bearing, ring, t = (a[order] for a in (x, y, z, r, bearing, ring, t))
+        d_bearing = np.abs(np.diff(bearing))
+        brk = np.empty(x.size, dtype=bool)
+        brk[0] = True
+        brk[1:] = ((ring[1:] != ring[:-1]) | (np.abs(np.diff(r)) > cfg.surface_range_jump_m)
+                   | (d_bearing > math.radians(cfg.surface_max_gap_deg)))
+        starts = np.flatnonzero(brk)
+        seg = np.cumsum(brk) - 1
+        n_seg = starts.size
+        count = np.diff(np.append(starts, x.size))
+        ends = starts + count - 1
+        sx = np.bincount(seg, x, n_seg) / count
+        sy = np.bincount(seg, y, n_seg) / count
+        sr = np.hypot(sx, sy)
+        width = np.hypot(x[ends] - x[starts], y[ends] - y[starts])
+        step = d_bearing[~brk[1:]]
+        az_step = float(np.median(step)) if step.size else math.radians(0.2)
+        az_step = max(az_step, math.radians(0.05))
+        # each return stands for one azimuth step of surface: add one step to the chord
+        width = width + sr * az_step
+        good = ((count >= max(cfg.min_surface_points, 2)) & (width < cfg.max_surface_width_m)
+                & (sr < cfg.max_range_m))
+        self.stats["surfaces"] = int(n_seg)
+        self.stats["surfaces_kept"] = int(good.sum())
+        if not good.any():
+            return LidarCones(timestamp_s, (), sweep_start, n_all)
+        surf = np.flatnonzero(good)
+
+        # --- merge surfaces with close x-y midpoints into preliminary cones
+        label = _components(sx[surf], sy[surf], cfg.merge_distance_m)
+        n_cones = int(label.max()) + 1
+        pt_surf_ok = good[seg]
+        seg_to_cone = np.full(n_seg, -1, dtype=np.int64)
+        seg_to_cone[surf] = label
+        pc = seg_to_cone[seg]  # preliminary cone of each return, -1 if none
+        m = pt_surf_ok
+        px, py, pz, pring, pt, pcone = x[m], y[m], z[m], ring[m], t[m], pc[m]
+        npts = np.bincount(pcone, minlength=n_cones)
+        cx = np.bincount(pcone, px, n_cones) / npts
+        cy = np.bincount(pcone, py, n_cones) / npts
+
+        # --- cluster filter
+        dx = cx[:, None] - cx[None, :]
+        dy = cy[:, None] - cy[None, :]
+        neighbours = ((dx * dx + dy * dy) < cfg.cluster_radius_m**2).sum(axis=1)
+        clustered = neighbours > cfg.cluster_max_cones
+        self.stats["preliminary"] = n_cones
+        self.stats["clustered"] = int(clustered.sum())
+
+        # --- final filter
+        ring_hits = np.zeros((n_cones, _N_RINGS), dtype=np.int64)
+        np.add.at(ring_hits, (pcone, pring), 1)
+        layers = (ring_hits > 0).sum(axis=1)
+        top = np.full(n_cones, -np.inf)
+        np.maximum.at(top, pcone, pz)
+        rng = np.hypot(cx, cy)
+        exp_small = self._expected_hits(rng, ConeSize.SMALL, az_step)
+        exp_large = self._expected_hits(rng, ConeSize.LARGE, az_step)
+        # rings a cone of either size could be seen on with 2+ returns at that range
+        reachable = np.maximum((exp_small >= 2.0).sum(axis=1), (exp_large >= 2.0).sum(axis=1))
+        layer_ok = (layers >= cfg.min_layers) | (
+            (layers >= 1) & (rng > cfg.single_layer_beyond_m) & (reachable < cfg.min_layers))
+        height_ok = top < cfg.large_height_m + cfg.height_tolerance_m
+        final = ~clustered & layer_ok & (npts >= cfg.min_points) & height_ok
+        # size: a top above small_height_m is a large cone; else compare per-ring counts
+        err_small = (((ring_hits - exp_small) ** 2) / (exp_small + 1.0)).sum(axis=1)
+        err_large = (((ring_hits - exp_large) ** 2) / (exp_large + 1.0)).sum(axis=1)
+        large = (top >= cfg.small_height_m) | (err_large < err_small)
+        self.stats["cones"] = int(final.sum())
+
+        cones: list[ConeDetection] = []
+        if not final.any():
+            return LidarCones(timestamp_s, (), sweep_start, n_all)
+        # centre: push the centroid back along the line of sight by pi/4 of the radius
+        pt_large = large[pcone]
+        radius = np.where(pt_large, cone_radius_m(ConeSize.LARGE, pz),
+                          cone_radius_m(ConeSize.SMALL, pz))
+        push = np.bincount(pcone, radius, n_cones) / npts * (math.pi / 4.0)
+        ux, uy = cx / np.maximum(rng, 1e-9), cy / np.maximum(rng, 1e-9)
+        centre_x = cx + ux * push + self.lidar_x_m
+        centre_y = cy + uy * push
+        t_seen = np.bincount(pcone, pt, n_cones) / npts
+        surf_cone = label
+        max_width = np.zeros(n_cones)
+        np.maximum.at(max_width, surf_cone, width[surf])
+        for i in np.flatnonzero(final):
+            cones.append(ConeDetection(
+                timestamp_s=float(t_seen[i]),
+                x_m=float(centre_x[i]),
+                y_m=float(centre_y[i]),
+                colour=ConeColour.UNKNOWN,
+                size=ConeSize.LARGE if large[i] else ConeSize.SMALL,
+                confidence=1.0,
+                height_m=float(top[i]),
+                width_m=float(max_width[i]),
+            ))
+        return LidarCones(timestamp_s, tuple(cones), sweep_start, n_all)
+
+    def _expected_hits(self, rng: NDArray[np.float64], size: ConeSize,
+                       az_step_rad: float) -> NDArray[np.float64]:
+        """Expected returns (K, 16) on each ring of a cone of ``size`` at range ``rng`` (K,)."""
+        h = self.lidar_z_m + rng[:, None] * _TAN_RING[None, :]
+        w = 2.0 * cone_radius_m(size, h)
+        w = np.where(h > self.cfg.ground_clearance_m, w, 0.0)
+        return w / (np.maximum(rng, 1e-3)[:, None] * az_step_rad)
+
+
+def _components(x: NDArray[np.float64], y: NDArray[np.float64], dist_m: float
+                ) -> NDArray[np.int64]:
+    """Connected components of points closer than ``dist_m`` (labels 0..K-1), (N,)."""
+    n = x.size
+    dx = x[:, None] - x[None, :]
+    dy = y[:, None] - y[None, :]
+    adj = (dx * dx + dy * dy) < dist_m * dist_m
+    label = np.arange(n)
+    # label propagation: each point takes the smallest label of its neighbours until stable
+    while True:
+        new = np.where(adj, label[None, :], n).min(axis=1)
+        new = np.minimum(new, label)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    _, dense = np.unique(label, return_inverse=True)
+    return dense.astype(np.int64)

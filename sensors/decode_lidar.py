@@ -1,0 +1,163 @@
+"""Offline decoding of a VLP-16 capture: ``python main.py decode lidar FILE.pcap``.
+
+:func:`read_pcap_udp` reads a classic libpcap file (either byte order, micro- or nanosecond
+stamps; Ethernet with optional VLAN tags, Linux cooked capture or raw IPv4 links) and yields the
+UDP datagrams. :func:`decode_pcap` feeds the data packets (port 2368, 1206 bytes) through the
+same :class:`~sensors.lidar_parser.LidarParser` the live receiver uses and yields one dict per
+sweep, then a final ``{"counts": {...}, "rejects": {...}}``.
+
+``points_out`` receives every return of every good data packet as an (N, 4) float64 array:
+x, y, z (m) in the SENSOR frame as velodyne-decoder gives it (x forward = azimuth 0, y left,
+z up, origin at the optical centre) and the reflectivity 0..255.
+"""
+
+from __future__ import annotations
+
+import logging
+import struct
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from common.config import AppConfig
+from common.errors import DecodeError
+from sensors.lidar_parser import LidarParser
+from sensors.velodyne import PACKET_SIZE, POSITION_PACKET_SIZE, decode_packets
+
+log = logging.getLogger(__name__)
+
+DATA_PORT = 2368
+POSITION_PORT = 8308
+_LINK_ETHERNET = 1
+_LINK_RAW = (101, 12, 14)
+_LINK_LINUX_SLL = 113
+
+
+def read_pcap_udp(path: str | Path, counts: Counter[str] | None = None
+                  ) -> Iterator[tuple[float, int, bytes]]:
+    """Yield ``(timestamp_s, destination_port, payload)`` for each IPv4 UDP datagram.
+
+    Frames that are not IPv4 UDP are counted in ``counts["not_udp"]``; a truncated record ends
+    the file (``counts["truncated_record"]``). Raises :class:`DecodeError` if the file is not
+    a classic pcap file.
+    """
+    counts = counts if counts is not None else Counter()
+    data = Path(path).read_bytes()
+    if len(data) < 24:
+        raise DecodeError(f"{path}: too short for a pcap file ({len(data)} bytes)")
+    magic = data[:4]
+    if magic in (b"\xd4\xc3\xb2\xa1", b"\x4d\x3c\xb2\xa1"):
+        endian = "<"
+    elif magic in (b"\xa1\xb2\xc3\xd4", b"\xa1\xb2\x3c\x4d"):
+        endian = ">"
+    elif magic == b"\x0a\x0d\x0d\x0a":
+        raise DecodeError(f"{path}: pcapng is not supported; convert it with "
+                          "'editcap -F pcap IN OUT'")
+    else:
+        raise DecodeError(f"{path}: not a pcap file (magic {magic.hex()})")
+    nanos = magic in (b"\x4d\x3c\xb2\xa1", b"\xa1\xb2\x3c\x4d")
+    linktype = struct.unpack_from(endian + "I", data, 20)[0] & 0xFFFF
+    record = struct.Struct(endian + "IIII")
+    offset = 24
+    while offset + 16 <= len(data):
+        sec, frac, incl, _orig = record.unpack_from(data, offset)
+        offset += 16
+        if offset + incl > len(data):
+            counts["truncated_record"] += 1
+            return
+        frame = data[offset:offset + incl]
+        offset += incl
+        stamp = sec + frac * (1e-9 if nanos else 1e-6)
+        ip = _ip_payload(frame, linktype)
+        udp = _udp_payload(ip) if ip is not None else None
+        if udp is None:
+            counts["not_udp"] += 1
+            continue
+        yield stamp, udp[0], udp[1]
+
+
+def _ip_payload(frame: bytes, linktype: int) -> bytes | None:
+    if linktype == _LINK_ETHERNET:
+        pos = 12
+        ethertype = int.from_bytes(frame[pos:pos + 2], "big")
+        while ethertype in (0x8100, 0x88A8) and len(frame) >= pos + 6:  # VLAN tags
+            pos += 4
+            ethertype = int.from_bytes(frame[pos:pos + 2], "big")
+        return frame[pos + 2:] if ethertype == 0x0800 else None
+    if linktype == _LINK_LINUX_SLL:
+        return frame[16:] if frame[14:16] == b"\x08\x00" else None
+    if linktype in _LINK_RAW:
+        return frame
+    return None
+
+
+def _udp_payload(ip: bytes) -> tuple[int, bytes] | None:
+    if len(ip) < 20 or ip[0] >> 4 != 4 or ip[9] != 17:
+        return None
+    ihl = (ip[0] & 0x0F) * 4
+    total = int.from_bytes(ip[2:4], "big")
+    ip = ip[:total] if 0 < total <= len(ip) else ip
+    udp = ip[ihl:]
+    if len(udp) < 8:
+        return None
+    port = int.from_bytes(udp[2:4], "big")
+    length = int.from_bytes(udp[4:6], "big")
+    payload = udp[8:length] if 8 <= length <= len(udp) else udp[8:]
+    return port, payload
+
+
+def decode_pcap(path: str, points_out: str | None = None,
+                config: AppConfig | None = None) -> Iterator[dict[str, Any]]:
+    """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}``.
+
+    Each sweep dict has ``time`` (end of the sweep, pcap clock, s), ``sweep_start``,
+    ``points`` (returns in the sweep) and ``cones`` (detections in the VEHICLE frame:
+    ``x_m``, ``y_m``, ``size``, ``height_m``, ``time``). Datagrams to other ports are counted;
+    1206-byte datagrams that do not decode are counted as rejects by reason.
+    """
+    config = config if config is not None else AppConfig()
+    counts: Counter[str] = Counter()
+    parser = LidarParser(config)
+    all_points: list[np.ndarray] = []
+    for stamp, port, payload in read_pcap_udp(path, counts):
+        if port == POSITION_PORT or len(payload) == POSITION_PACKET_SIZE:
+            counts["position_packets"] += 1
+            continue
+        if port != DATA_PORT and len(payload) != PACKET_SIZE:
+            counts["other_udp"] += 1
+            continue
+        counts["data_packets"] += 1
+        if points_out is not None:
+            try:
+                all_points.append(decode_packets([payload]).points)
+            except DecodeError as exc:
+                log.debug("bad packet: %s", exc)
+        for sweep in parser.feed(stamp, payload):
+            yield _sweep_dict(sweep)
+    for sweep in parser.flush():
+        yield _sweep_dict(sweep)
+    counts["sweeps"] = parser.counts["sweeps"]
+    counts["points"] = parser.counts["points"]
+    counts["cones"] = parser.counts["cones"]
+    if points_out is not None:
+        arr = np.concatenate(all_points) if all_points else np.zeros((0, 4))
+        np.save(points_out, arr)
+        counts["points_written"] = int(arr.shape[0])
+    yield {"counts": dict(sorted(counts.items())),
+           "rejects": dict(sorted(parser.rejects.items()))}
+
+
+def _sweep_dict(sweep: Any) -> dict[str, Any]:
+    return {
+        "time": round(sweep.timestamp_s, 6),
+        "sweep_start": round(sweep.sweep_start_s, 6),
+        "points": sweep.point_count,
+        "cones": [
+            {"x_m": round(c.x_m, 3), "y_m": round(c.y_m, 3), "size": c.size.name.lower(),
+             "height_m": round(c.height_m, 3), "time": round(c.timestamp_s, 6)}
+            for c in sweep.cones
+        ],
+    }

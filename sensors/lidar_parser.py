@@ -1,0 +1,65 @@
+"""VLP-16 data packets to cone detections: sweep assembly and the cone detector.
+
+The same object serves the live UDP receiver, the simulation loop and replay: feed it each
+datagram with its arrival time on the Clock and it returns a :class:`LidarCones` whenever a
+sweep completes. Bad datagrams are counted in ``rejects`` by reason and logged, never raised.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+
+from common.config import AppConfig
+from common.errors import DecodeError
+from common.messages import LidarCones, LidarPoints
+from sensors.cone_detector import ConeDetector
+from sensors.velodyne import SweepAssembler, reject_reason
+
+log = logging.getLogger(__name__)
+
+
+class LidarParser:
+    """VLP-16 datagrams in, one :class:`LidarCones` per completed sweep out.
+
+    ``feed(timestamp_s, payload)``: ``timestamp_s`` is the datagram's arrival time (s), taken
+    as :data:`sensors.velodyne.PACKET_DURATION_S` after its first firing. ``rejects`` counts
+    bad datagrams by reason (``bad_length``, ``bad_flag``, ``bad_azimuth``); ``counts`` counts
+    ``packets``, ``sweeps``, ``points`` and ``cones``. ``last_sweep`` keeps the last sweep's
+    points (for drawing and tests).
+    """
+
+    source = "lidar"
+
+    def __init__(self, config: AppConfig | None = None) -> None:
+        config = config if config is not None else AppConfig()
+        self.assembler = SweepAssembler(cut_azimuth_deg=config.sensors.lidar.cut_azimuth_deg)
+        self.detector = ConeDetector(config)
+        self.rejects: Counter[str] = Counter()
+        self.counts: Counter[str] = Counter()
+        self.last_sweep: LidarPoints | None = None
+
+    def feed(self, timestamp_s: float, payload: bytes) -> list[LidarCones]:
+        """Take one datagram; return the cones of the sweeps it completes (usually none)."""
+        try:
+            sweeps = self.assembler.add(timestamp_s, bytes(payload))
+        except DecodeError as exc:
+            reason = reject_reason(exc)
+            self.rejects[reason] += 1
+            if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
+                log.warning("lidar: rejected datagram (%s; %d so far)", exc, self.rejects[reason])
+            return []
+        self.counts["packets"] += 1
+        return [self._detect(s) for s in sweeps]
+
+    def flush(self) -> list[LidarCones]:
+        """Detect cones in the partial sweep collected so far (end of a file or a stream)."""
+        return [self._detect(s) for s in self.assembler.flush()]
+
+    def _detect(self, sweep: LidarPoints) -> LidarCones:
+        self.last_sweep = sweep
+        cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s)
+        self.counts["sweeps"] += 1
+        self.counts["points"] += cones.point_count
+        self.counts["cones"] += len(cones.cones)
+        return cones

@@ -1,0 +1,340 @@
+"""Velodyne VLP-16 data packets: decoding (vectorised numpy) and sweep assembly.
+
+A data packet is the 1206-byte UDP payload the sensor sends to port 2368:
+
+- 12 data blocks of 100 bytes: flag ``0xFFEE`` (bytes ``FF EE``), azimuth (uint16 LE,
+  hundredths of a degree, clockwise seen from above, 0 = the sensor's front), then 32 channel
+  returns of 3 bytes each: distance (uint16 LE, 2 mm units, 0 = no return) and reflectivity
+  (uint8). Returns 0..15 are the first firing sequence of lasers 0..15, returns 16..31 the
+  second firing sequence, fired 55.296 us later.
+- a 4-byte timestamp (uint32 LE, microseconds past the hour, of the first firing of block 0),
+- 2 factory bytes: return mode (0x37 strongest, 0x38 last, 0x39 dual) and product id
+  (0x22 VLP-16; some units report 0x21).
+
+Lasers fire every 2.304 us inside a 55.296 us firing sequence (VLP-16 user manual, 63-9243
+rev E, section 9). The azimuth of every return is interpolated from the block azimuth with the
+packet's mean rotation rate and rounded to 0.01 deg, exactly as ``velodyne-decoder`` (and the
+ROS ``velodyne_pointcloud`` driver) do, so that both give the same points.
+
+Frame of the decoded points: the ROS sensor frame of ``velodyne-decoder`` -- x forward (azimuth
+0), y left, z up, origin at the sensor's optical centre. It is our vehicle-frame convention
+(x forward, y left, z up), only shifted by the mount offset (car.lidar_x_m, car.lidar_z_m).
+
+Each laser's origin sits a few mm above or below the optical centre (the manual's vertical
+correction, :data:`LASER_VERTICAL_OFFSET_M`), added to z as the manual (and velodyne-decoder
+3.x) do: ``z = d sin(el) + off``, ``xy = d cos(el)``.
+
+``ring`` numbers lasers by elevation, 0 = lowest (-15 deg) to 15 = highest (+15 deg), as
+``velodyne-decoder``'s ring field does; ``LASER_ELEVATION_DEG[laser_id]`` is by laser id.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.errors import DecodeError
+from common.messages import LidarPoints
+
+PACKET_SIZE = 1206
+"""Bytes in one VLP-16 data packet (UDP payload)."""
+POSITION_PACKET_SIZE = 512
+"""Bytes in one VLP-16 position (GPS/telemetry) packet, sent to port 8308."""
+BLOCKS_PER_PACKET = 12
+BLOCK_SIZE = 100
+LASERS = 16
+RETURNS_PER_BLOCK = 32
+BLOCK_FLAG = b"\xff\xee"
+LASER_TIME_S = 2.304e-6
+"""Time between two successive laser firings inside a firing sequence (s)."""
+FIRING_CYCLE_S = 55.296e-6
+"""Duration of one firing sequence of all 16 lasers, recharge included (s)."""
+BLOCK_DURATION_S = 2 * FIRING_CYCLE_S
+"""Each data block holds two firing sequences (s)."""
+PACKET_DURATION_S = BLOCKS_PER_PACKET * BLOCK_DURATION_S
+"""Time spanned by one single-return packet: 1.327104 ms, i.e. 753.5 packets/s (s)."""
+DISTANCE_UNIT_M = 0.002
+RETURN_MODE_STRONGEST = 0x37
+RETURN_MODE_LAST = 0x38
+RETURN_MODE_DUAL = 0x39
+PRODUCT_VLP16 = 0x22
+
+LASER_ELEVATION_DEG = np.array(
+    [-15.0, 1.0, -13.0, 3.0, -11.0, 5.0, -9.0, 7.0, -7.0, 9.0, -5.0, 11.0, -3.0, 13.0, -1.0, 15.0]
+)
+"""Vertical angle of each laser id 0..15 (deg), the VLP-16's interleaved table."""
+LASER_VERTICAL_OFFSET_M = 1e-3 * np.array(
+    [11.2, -0.7, 9.7, -2.2, 8.1, -3.7, 6.6, -5.1, 5.1, -6.6, 3.7, -8.1, 2.2, -9.7, 0.7, -11.2]
+)
+"""Vertical offset of each laser id's origin from the optical centre (m), VLP-16 manual
+table 9-1; velodyne-decoder's default VLP-16 calibration applies it too."""
+LASER_RING = np.argsort(np.argsort(LASER_ELEVATION_DEG)).astype(np.int64)
+"""Ring number (0 = lowest) of each laser id."""
+RING_ELEVATION_DEG = np.sort(LASER_ELEVATION_DEG)
+"""Vertical angle of each ring 0..15 (deg), ascending."""
+
+# float32 tables, as velodyne-decoder computes them, so the rounding of azimuths agrees
+_RETURN_TIME_S = np.array(
+    [
+        [np.float32(FIRING_CYCLE_S * (2 * i + j // LASERS) + LASER_TIME_S * (j % LASERS))
+         for j in range(RETURNS_PER_BLOCK)]
+        for i in range(BLOCKS_PER_PACKET)
+    ],
+    dtype=np.float32,
+)
+"""Time of each (block, return) after the first firing of block 0 (s), (12, 32) float32."""
+_COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
+_SIN_EL = np.sin(np.radians(LASER_ELEVATION_DEG))
+
+
+@dataclass(frozen=True, slots=True)
+class DecodedPackets:
+    """The returns of one or more packets (empty returns, distance 0, are left out).
+
+    ``points`` (N, 4): x, y, z (m, sensor frame), reflectivity (0..255);
+    ``azimuth_deg`` (N,) each return's interpolated azimuth, [0, 360), clockwise from x;
+    ``rings`` (N,) 0..15 by elevation; ``time_offset_s`` (N,) after the first firing of its
+    packet; ``packet_index`` (N,) which of the given payloads it came from.
+    """
+
+    points: NDArray[np.float64]
+    azimuth_deg: NDArray[np.float64]
+    rings: NDArray[np.int64]
+    time_offset_s: NDArray[np.float64]
+    packet_index: NDArray[np.int64]
+
+
+def check_packet(payload: bytes) -> None:
+    """Raise :class:`DecodeError` unless ``payload`` is a well-formed VLP-16 data packet."""
+    if len(payload) != PACKET_SIZE:
+        raise DecodeError(f"bad_length: VLP-16 data packet of {len(payload)} bytes, "
+                          f"expected {PACKET_SIZE}")
+    if payload[0:1200:100] != b"\xff" * 12 or payload[1:1200:100] != b"\xee" * 12:
+        raise DecodeError("bad_flag: a data block does not start with 0xFFEE")
+    azimuths = np.frombuffer(payload, dtype="<u2", count=600)[1:600:50]
+    if int(azimuths.max()) >= 36000:
+        raise DecodeError(f"bad_azimuth: block azimuth {int(azimuths.max())} >= 36000")
+
+
+def decode_packets(payloads: Sequence[bytes]) -> DecodedPackets:
+    """Decode VLP-16 data packets, vectorised over all of them.
+
+    Raises :class:`DecodeError` (message starting with the reject reason ``bad_length``,
+    ``bad_flag`` or ``bad_azimuth``) if any of them is malformed.
+    """
+    for payload in payloads:
+        check_packet(payload)
+    n_packets = len(payloads)
+    if n_packets == 0:
+        empty = np.zeros(0)
+        return DecodedPackets(np.zeros((0, 4)), empty, np.zeros(0, np.int64), empty,
+                              np.zeros(0, np.int64))
+    body = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(n_packets, PACKET_SIZE)
+    dual = body[:, 1204] == RETURN_MODE_DUAL
+    blocks = body[:, :1200].reshape(n_packets, BLOCKS_PER_PACKET, BLOCK_SIZE)
+    block_az = blocks[:, :, 2].astype(np.int64) | (blocks[:, :, 3].astype(np.int64) << 8)
+    # returns: (P, 12, 32) distance uint16 and reflectivity uint8
+    rets = blocks[:, :, 4:].reshape(n_packets, BLOCKS_PER_PACKET, RETURNS_PER_BLOCK, 3)
+    distance = rets[..., 0].astype(np.uint16) | (rets[..., 1].astype(np.uint16) << 8)
+    reflectivity = rets[..., 2]
+
+    # timing: in dual-return mode block pairs (0,1), (2,3)... share one firing time
+    block_idx = np.arange(BLOCKS_PER_PACKET)
+    timing_block = np.where(dual[:, None], block_idx[None, :] // 2, block_idx[None, :])
+    times = _RETURN_TIME_S[timing_block]  # (P, 12, 32) float32
+    last_timed = np.where(dual, (BLOCKS_PER_PACKET - 1) // 2, BLOCKS_PER_PACKET - 1)
+    duration = _RETURN_TIME_S[last_timed, 0] - _RETURN_TIME_S[0, 0]  # float32
+    az_diff = (block_az[:, -1] - block_az[:, 0] + 36000) % 36000
+    rate = az_diff.astype(np.float32) / duration  # hundredths of a degree per second, float32
+    dt = times - times[:, :, :1]
+    az_f = (block_az.astype(np.float32)[:, :, None] + rate[:, None, None] * dt) + np.float32(36000)
+    # lround: half away from zero (all values are positive)
+    azimuth = (np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64)) % 36000
+
+    valid = distance > 0
+    if dual.any():
+        # keep the strongest return (odd blocks) only, so each ring is one line of returns
+        keep_block = ~dual[:, None] | (block_idx[None, :] % 2 == 1)
+        valid &= keep_block[:, :, None]
+    laser = np.tile(np.arange(LASERS), 2)[None, None, :]
+    laser_full = np.broadcast_to(laser, valid.shape)
+
+    p_idx, b_idx, r_idx = np.nonzero(valid)
+    laser_id = laser_full[p_idx, b_idx, r_idx]
+    dist_m = distance[p_idx, b_idx, r_idx].astype(np.float64) * DISTANCE_UNIT_M
+    az_hundredths = azimuth[p_idx, b_idx, r_idx]
+    az_rad = az_hundredths * (math.pi / 18000.0)
+    v_off = LASER_VERTICAL_OFFSET_M[laser_id]
+    xy = dist_m * _COS_EL[laser_id]
+    points = np.empty((dist_m.shape[0], 4))
+    points[:, 0] = xy * np.cos(az_rad)
+    points[:, 1] = -xy * np.sin(az_rad)
+    points[:, 2] = dist_m * _SIN_EL[laser_id] + v_off
+    points[:, 3] = reflectivity[p_idx, b_idx, r_idx]
+    return DecodedPackets(
+        points=points,
+        azimuth_deg=az_hundredths * 0.01,
+        rings=LASER_RING[laser_id],
+        time_offset_s=times[p_idx, b_idx, r_idx].astype(np.float64),
+        packet_index=p_idx.astype(np.int64),
+    )
+
+
+def decode_packet(
+    payload: bytes,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """Decode one VLP-16 data packet.
+
+    Returns ``(points (N, 4) x, y, z (m, sensor frame), reflectivity; azimuth_deg (N,);
+    ring (N,); time_offset_s (N,) after the packet's first firing)``. Raises
+    :class:`DecodeError` on a malformed packet.
+    """
+    d = decode_packets([payload])
+    return d.points, d.azimuth_deg, d.rings, d.time_offset_s
+
+
+def packet_timestamp_us(payload: bytes) -> int:
+    """The packet's own timestamp: microseconds past the hour of its first firing."""
+    return int.from_bytes(payload[1200:1204], "little")
+
+
+def reject_reason(error: DecodeError) -> str:
+    """The reject-counter key of a :class:`DecodeError` raised here (``bad_length``...)."""
+    text = str(error)
+    head = text.split(":", 1)[0]
+    return head if head.isidentifier() else "undecodable"
+
+
+class DeviceClock:
+    """Maps the packets' own timestamps (us past the hour) onto the receiver's Clock.
+
+    Arrival times jitter (the network batches datagrams) but are never earlier than the
+    packet was complete, so the offset Clock - device is the smallest seen ``arrival -
+    PACKET_DURATION_S - device``; it may grow by ``drift_ppm`` (clock drift) and is reset after
+    a jump of more than ``reset_s``. The hour wrap of the device time is unwrapped.
+    """
+
+    def __init__(self, drift_ppm: float = 100.0, reset_s: float = 0.5) -> None:
+        self.drift = drift_ppm * 1e-6
+        self.reset_s = reset_s
+        self.offset_s: float | None = None
+        self._last_device_s: float | None = None
+        self._hours = 0
+
+    def update(self, arrival_s: float, device_us: int) -> float:
+        """Take a packet's arrival time (Clock, s) and timestamp; return its device time (s,
+        unwrapped) and update the offset."""
+        device_s = device_us * 1e-6 + 3600.0 * self._hours
+        if self._last_device_s is not None and device_s < self._last_device_s - 1800.0:
+            self._hours += 1
+            device_s += 3600.0
+        cand = arrival_s - PACKET_DURATION_S - device_s
+        if (self.offset_s is None or self._last_device_s is None
+                or abs(cand - self.offset_s) > self.reset_s):
+            self.offset_s = cand
+        else:
+            grown = self.offset_s + self.drift * max(device_s - self._last_device_s, 0.0)
+            self.offset_s = min(grown, cand)
+        self._last_device_s = device_s
+        return device_s
+
+    def to_clock(self, device_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Device times (s, as :meth:`update` returned them) on the Clock (s)."""
+        return device_s + (self.offset_s or 0.0)
+
+
+class SweepAssembler:
+    """Packets to full 360 deg sweeps, cut where the azimuth passes ``cut_azimuth_deg``.
+
+    The default cut is behind the car (180 deg), where the car body hides the view, so a cone
+    ahead is never split between two sweeps. Packets are only checked on arrival (cheap); a
+    sweep's packets are decoded together, vectorised, when it completes.
+
+    ``add(timestamp_s, payload)`` takes the packet's arrival time on the Clock, at least
+    :data:`PACKET_DURATION_S` after its first firing (the sensor sends a packet when it is
+    full); return times come from the packet's own timestamp mapped onto the Clock by a
+    :class:`DeviceClock`, so arrival jitter does not reach them. It returns the sweeps
+    completed by this packet (usually none, sometimes one).
+    A silence longer than ``max_gap_s`` ends the current sweep too. Raises
+    :class:`DecodeError` on a bad packet (which is then not used).
+    """
+
+    def __init__(self, cut_azimuth_deg: float = 180.0, max_gap_s: float = 0.05) -> None:
+        self.cut_hundredths = int(round(cut_azimuth_deg * 100.0)) % 36000
+        self.max_gap_s = max_gap_s
+        self._payloads: list[bytes] = []
+        self._stamps: list[float] = []
+        self._carry: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None
+        self._carry = None
+        self._last_rel: int | None = None
+        self._last_stamp: float | None = None
+        self.sweeps = 0
+        self.clock = DeviceClock()
+
+    def _rel(self, azimuth: int) -> int:
+        return (azimuth - self.cut_hundredths) % 36000
+
+    def add(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
+        """Add one data packet; return the sweeps it completes."""
+        check_packet(payload)
+        done: list[LidarPoints] = []
+        if (self._last_stamp is not None
+                and (timestamp_s - self._last_stamp > self.max_gap_s
+                     or timestamp_s < self._last_stamp)):
+            done.extend(self.flush())
+        first = self._rel(int.from_bytes(payload[2:4], "little"))
+        last = self._rel(int.from_bytes(payload[1102:1104], "little"))
+        if self._last_rel is not None and first < self._last_rel:
+            # the cut lies between the previous packet and this one
+            done.extend(self._complete(split_from=None))
+        self._payloads.append(payload)
+        self._stamps.append(self.clock.update(timestamp_s, packet_timestamp_us(payload)))
+        self._last_rel = last
+        self._last_stamp = timestamp_s
+        if last < first:
+            # the cut lies inside this packet
+            done.extend(self._complete(split_from=first))
+        return done
+
+    def flush(self) -> list[LidarPoints]:
+        """Emit whatever has been collected as a (partial) sweep."""
+        out = self._complete(split_from=None)
+        out.extend(self._complete(split_from=None))  # a carried-over remainder, if any
+        self._last_rel = None
+        self._last_stamp = None
+        return out
+
+    def _complete(self, split_from: int | None) -> list[LidarPoints]:
+        """Close the sweep; with ``split_from`` (the last packet's first relative azimuth),
+        that packet's returns past the cut are carried over to the next sweep."""
+        payloads, stamps = self._payloads, self._stamps
+        self._payloads, self._stamps = [], []
+        if not payloads and self._carry is None:
+            return []
+        dec = decode_packets(payloads)
+        t0 = self.clock.to_clock(np.asarray(stamps, dtype=np.float64))
+        times = t0[dec.packet_index] + dec.time_offset_s if payloads else dec.time_offset_s
+        points, rings = dec.points, dec.rings
+        carry_next = None
+        if split_from is not None and payloads:
+            rel = (np.round(dec.azimuth_deg * 100.0).astype(np.int64) - self.cut_hundredths)
+            rel %= 36000
+            nxt = (dec.packet_index == len(payloads) - 1) & (rel < split_from)
+            carry_next = (points[nxt], times[nxt], rings[nxt])
+            keep = ~nxt
+            points, times, rings = points[keep], times[keep], rings[keep]
+        if self._carry is not None:
+            cp, ct, cr = self._carry
+            points = np.concatenate([cp, points])
+            times = np.concatenate([ct, times])
+            rings = np.concatenate([cr, rings])
+        self._carry = carry_next
+        if points.shape[0] == 0:
+            return []
+        self.sweeps += 1
+        end_s = float(times.max())
+        return [LidarPoints(timestamp_s=end_s, points=points, times_s=times, rings=rings)]
