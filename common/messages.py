@@ -15,12 +15,15 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import Any  # noqa: E402
 
 import numpy as np
 from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+FloatArray = NDArray[Any]
+"""A float64 array (converted on construction; any numeric dtype is accepted)."""
+IntArray = NDArray[Any]
+"""An int64 array (converted on construction)."""
 
 
 def _frozen_array(value: object, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]

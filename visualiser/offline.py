@@ -70,11 +70,11 @@ def render_recording(path: Path, out_dir: Path, config: AppConfig, fps: float | 
     wall0 = time.perf_counter()
     for t_s, topic, message in Player(path, rate=None,
                                       topics=[MAP_STATE, PLAN, COMMAND, TRUTH_POSE, TRUTH_TRACK]):
-        if topic == PLAN:
+        if isinstance(message, Plan):
             plan = message
-        elif topic == COMMAND:
+        elif isinstance(message, ActuatorCommand):
             command = message
-        elif topic == TRUTH_POSE:
+        elif isinstance(message, GroundTruth):
             truth = message
         elif topic == TRUTH_TRACK and vis.show_truth:
             renderer.track = track_data(message)
