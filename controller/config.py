@@ -3,6 +3,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Literal
+
+
+@dataclass(slots=True)
+class PidConfig:
+    """Gains and limits of one PID (output 0..1 of the actuator)."""
+
+    kp: float = 0.3
+    ki: float = 0.1
+    kd: float = 0.0
+    integral_limit: float = 0.3
+    """The integrator's contribution (ki * integral) is clipped to +- this."""
 
 
 @dataclass(slots=True)
@@ -10,6 +22,22 @@ class SafetyConfig:
     """When the safety supervisor stops the car."""
 
     plan_timeout_s: float = 0.2
+    critical_sources: tuple[str, ...] = ("imu", "lidar")
+    """Sources whose staleness is an emergency (full braking at once)."""
+    max_position_sigma_m: float = 1.0
+    max_yaw_sigma_rad: float = 0.3
+    track_half_width_m: float = 2.0
+    corridor_margin_m: float = 1.0
+    """Leaving the corridor: distance from the baseframe > half track width + this margin."""
+    stop_decel_mps2: float = 6.0
+    """Deceleration of a controlled stop."""
+    standstill_speed_mps: float = 0.2
+    min_ready_time_s: float = 0.0
+    """Time in READY before a go is accepted (the rules ask 5 s on the car)."""
+    auto_go: bool = False
+    """Go from READY to DRIVING without a RES go (simulation)."""
+    auto_arm: bool = True
+    """Go from OFF to READY when the first plan with a baseframe arrives and sensors are fresh."""
 
 
 @dataclass(slots=True)
@@ -17,4 +45,27 @@ class ControllerConfig:
     """Throttle and brake PIDs, steering law, rates."""
 
     rate_hz: float = 100.0
+    laps: int | None = None
+    """Autonomous laps before the car stops (None: take sim.laps)."""
+    throttle_pid: PidConfig = field(default_factory=lambda: PidConfig(0.35, 0.15, 0.0, 0.3))
+    brake_pid: PidConfig = field(default_factory=lambda: PidConfig(0.25, 0.1, 0.0, 0.2))
+    use_feedforward: bool = True
+    resistance_accel_mps2: float = 0.3
+    """Drag and rolling resistance the throttle feedforward compensates at speed."""
+    mode_switch_accel_mps2: float = 0.4
+    """Hysteresis between throttle and brake modes on the wanted acceleration."""
+    speed_preview_s: float = 0.25
+    steering_law: Literal["pure_pursuit", "stanley", "heading_p"] = "pure_pursuit"
+    lookahead_min_m: float = 3.0
+    lookahead_max_m: float = 12.0
+    lookahead_time_s: float = 0.35
+    lookahead_base_m: float = 2.0
+    heading_kp: float = 0.6
+    stanley_k: float = 1.5
+    stanley_soft_mps: float = 1.0
+    max_steer_rate_radps: float = 3.0
+    """Steering rate limit (the car's own limit applies too, whichever is lower)."""
+    hold_brake: float = 1.0
+    """Brake held at standstill in READY and FINISHED."""
+    max_dt_s: float = 0.1
     safety: SafetyConfig = field(default_factory=SafetyConfig)

@@ -1,0 +1,194 @@
+"""The safety supervisor: the Formula Student autonomous-system state machine, checked every tick.
+
+Faults and their response (issue 7, seed 002 3.1.3):
+
+- the remote emergency stop, or a stale critical sensor -> EMERGENCY at once (full braking);
+- a plan older than the timeout or with no manoeuvre, a pose that is not finite or too
+  uncertain, leaving the track corridor -> a controlled stop, then EMERGENCY at standstill;
+- the end of the run (lap count reached) -> a controlled stop, then FINISHED at standstill.
+
+States and legal transitions (FS rules, DV 2.x): OFF -> READY -> DRIVING -> FINISHED;
+READY, DRIVING, FINISHED -> EMERGENCY; READY, FINISHED, EMERGENCY -> OFF. A stop latches: once a
+reason is set, the car stops; only a new run (reset) clears it.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from common.messages import AsState, Health, Plan, PoseEstimate, RemoteStop
+from controller.config import SafetyConfig
+
+logger = logging.getLogger(__name__)
+
+LEGAL_TRANSITIONS: dict[AsState, frozenset[AsState]] = {
+    AsState.OFF: frozenset({AsState.READY}),
+    AsState.READY: frozenset({AsState.DRIVING, AsState.EMERGENCY, AsState.OFF}),
+    AsState.DRIVING: frozenset({AsState.EMERGENCY, AsState.FINISHED}),
+    AsState.FINISHED: frozenset({AsState.EMERGENCY, AsState.OFF}),
+    AsState.EMERGENCY: frozenset({AsState.OFF}),
+}
+
+
+class StopKind(enum.IntEnum):
+    """How the car must stop now."""
+
+    NONE = 0
+    CONTROLLED = 1
+    """Braking at the set deceleration to standstill."""
+    EMERGENCY = 2
+    """Full braking at once."""
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyStatus:
+    """The supervisor's verdict for one tick."""
+
+    state: AsState
+    stop: StopKind
+    reason: str
+
+
+class SafetySupervisor:
+    """Checks every control tick and keeps the AS state (see the module docstring).
+
+    ``laps``: autonomous laps after which the run ends (None or <= 0: no lap limit).
+    """
+
+    def __init__(self, config: SafetyConfig, laps: int | None = None) -> None:
+        self.config = config
+        self.laps = laps if laps is not None and laps > 0 else None
+        self.state = AsState.OFF
+        self.stop = StopKind.NONE
+        self.stop_reason = ""
+        self.stop_time_s = math.nan
+        self.transitions: list[tuple[float, AsState, AsState, str]] = []
+        self._ready_since_s = math.nan
+
+    # ------------------------------------------------------------------ state machine
+    def transition(self, now_s: float, new: AsState, reason: str = "") -> bool:
+        """Move to ``new`` if the FS state machine allows it; False (and a log) if not."""
+        if new == self.state:
+            return True
+        if new not in LEGAL_TRANSITIONS[self.state]:
+            logger.warning("illegal AS transition %s -> %s refused (%s)", self.state.name,
+                           new.name, reason)
+            return False
+        logger.info("AS %s -> %s at %.3f s %s", self.state.name, new.name, now_s, reason)
+        self.transitions.append((now_s, self.state, new, reason))
+        self.state = new
+        if new == AsState.READY:
+            self._ready_since_s = now_s
+        return True
+
+    def arm(self, now_s: float) -> bool:
+        """OFF -> READY."""
+        return self.transition(now_s, AsState.READY, "armed")
+
+    def go(self, now_s: float) -> bool:
+        """READY -> DRIVING (the RES go), after the minimum time in READY."""
+        if self.state != AsState.READY:
+            return False
+        if now_s - self._ready_since_s < self.config.min_ready_time_s:
+            return False
+        return self.transition(now_s, AsState.DRIVING, "go")
+
+    def request_stop(self, now_s: float, kind: StopKind, reason: str) -> None:
+        """Latch a stop; an emergency overrides a controlled stop, never the other way."""
+        if kind <= self.stop:
+            return
+        if self.stop == StopKind.NONE:
+            self.stop_reason = reason
+            self.stop_time_s = now_s
+            logger.warning("stop (%s) at %.3f s: %s", kind.name.lower(), now_s, reason)
+        elif kind == StopKind.EMERGENCY:
+            self.stop_reason = f"{self.stop_reason}; then {reason}"
+            logger.warning("emergency at %.3f s: %s", now_s, reason)
+        self.stop = kind
+        if kind == StopKind.EMERGENCY:
+            self.transition(now_s, AsState.EMERGENCY, reason)
+
+    def standstill(self, now_s: float) -> None:
+        """The car stands after a controlled stop: FINISHED for the end of the run, else
+        EMERGENCY."""
+        if self.stop != StopKind.CONTROLLED or self.state != AsState.DRIVING:
+            return
+        if self.stop_reason.startswith("finished"):
+            self.transition(now_s, AsState.FINISHED, self.stop_reason)
+        else:
+            self.transition(now_s, AsState.EMERGENCY, self.stop_reason)
+
+    # ------------------------------------------------------------------ checks
+    def check(
+        self,
+        now_s: float,
+        pose: PoseEstimate | None,
+        plan: Plan | None,
+        health: Health | None,
+        remote: RemoteStop | None,
+    ) -> SafetyStatus:
+        """One tick: update the state from the inputs and say how to stop, if at all."""
+        c = self.config
+        if remote is not None and remote.emergency and self.state != AsState.OFF:
+            self.request_stop(now_s, StopKind.EMERGENCY, "remote emergency stop")
+        stale = self._stale_critical(health)
+        if self.state == AsState.OFF and c.auto_arm:
+            if plan is not None and plan.baseframe is not None and not stale:
+                self.arm(now_s)
+        if self.state == AsState.READY:
+            if stale:
+                logger.debug("go refused: stale %s", stale)
+            elif (remote is not None and remote.go) or c.auto_go:
+                self.go(now_s)
+        if self.state == AsState.DRIVING:
+            if stale:
+                self.request_stop(now_s, StopKind.EMERGENCY, f"stale sensor: {', '.join(stale)}")
+            reason = self._controlled_stop_reason(now_s, pose, plan)
+            if reason:
+                self.request_stop(now_s, StopKind.CONTROLLED, reason)
+        if self.state == AsState.EMERGENCY:
+            self.stop = StopKind.EMERGENCY
+        return SafetyStatus(self.state, self.stop, self.stop_reason)
+
+    def _stale_critical(self, health: Health | None) -> tuple[str, ...]:
+        if health is None:
+            return ()
+        critical = set(self.config.critical_sources)
+        return tuple(s for s in health.stale_sources() if s in critical)
+
+    def _controlled_stop_reason(
+        self, now_s: float, pose: PoseEstimate | None, plan: Plan | None
+    ) -> str:
+        c = self.config
+        if pose is None:
+            return "no pose"
+        values = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps)
+        if not all(math.isfinite(v) for v in values) or not np.all(np.isfinite(pose.covariance)):
+            return "non-finite pose"
+        cov = pose.covariance
+        sigma_xy = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2]).max()), 0.0))
+        if sigma_xy > c.max_position_sigma_m:
+            return f"pose uncertain: position sigma {sigma_xy:.2f} m"
+        sigma_yaw = math.sqrt(max(float(cov[2, 2]), 0.0))
+        if sigma_yaw > c.max_yaw_sigma_rad:
+            return f"pose uncertain: yaw sigma {sigma_yaw:.2f} rad"
+        if plan is None:
+            return "no plan"
+        age = now_s - plan.timestamp_s
+        if age > c.plan_timeout_s:
+            return f"plan too old: {age:.3f} s"
+        if self.laps is not None and plan.lap >= self.laps:
+            return f"finished: {plan.lap} laps"
+        if len(plan.manoeuvre) == 0:
+            return "no manoeuvre"
+        bf = plan.baseframe
+        if bf is not None and len(bf.x_m):
+            dist = float(np.sqrt(np.min((bf.x_m - pose.x_m) ** 2 + (bf.y_m - pose.y_m) ** 2)))
+            if dist > c.track_half_width_m + c.corridor_margin_m:
+                return f"left the track corridor: {dist:.2f} m from the baseframe"
+        return ""

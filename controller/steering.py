@@ -1,0 +1,171 @@
+"""Steering laws: seed 002's P on the heading error to a look-ahead point, pure pursuit, Stanley.
+
+Each law is a tiny class with ``reset()`` and ``update(x, y, yaw, speed, path) -> steering (rad)``;
+the pose is the rear axle (the vehicle origin) in the world frame; ``path`` a :class:`PathRef`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.messages import TargetStates
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class PathRef:
+    """A path to follow: positions, headings, curvatures, speeds (K,) and arc length (K,)."""
+
+    x_m: FloatArray
+    y_m: FloatArray
+    yaw_rad: FloatArray
+    curvature_1pm: FloatArray
+    speed_mps: FloatArray
+    s_m: FloatArray
+
+    @classmethod
+    def from_targets(cls, targets: TargetStates) -> PathRef:
+        """The target states of a plan as a path."""
+        x = np.asarray(targets.x_m, np.float64)
+        y = np.asarray(targets.y_m, np.float64)
+        seg = np.hypot(np.diff(x), np.diff(y))
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        return cls(x, y, np.asarray(targets.yaw_rad, np.float64),
+                   np.asarray(targets.curvature_1pm, np.float64),
+                   np.asarray(targets.speed_mps, np.float64), s)
+
+    def __len__(self) -> int:
+        return int(self.x_m.shape[0])
+
+    def nearest(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """Arc length (m) of the point of the path nearest (x, y), and the signed cross-track
+        error (m): positive when the path lies to the left of the point (the point is right of
+        the path, so steering left corrects it)."""
+        dx = self.x_m - x_m
+        dy = self.y_m - y_m
+        i = int(np.argmin(dx * dx + dy * dy))
+        best_s, best_d2, best_e = float(self.s_m[i]), math.inf, 0.0
+        for a in (i - 1, i):
+            b = a + 1
+            if a < 0 or b >= len(self):
+                continue
+            vx, vy = self.x_m[b] - self.x_m[a], self.y_m[b] - self.y_m[a]
+            seg2 = vx * vx + vy * vy
+            if seg2 <= 0.0:
+                continue
+            t = ((x_m - self.x_m[a]) * vx + (y_m - self.y_m[a]) * vy) / seg2
+            t = min(max(t, 0.0), 1.0)
+            px, py = self.x_m[a] + t * vx, self.y_m[a] + t * vy
+            d2 = (x_m - px) ** 2 + (y_m - py) ** 2
+            if d2 < best_d2:
+                # positive: the path is to the left of the direction of travel from the point
+                side = vx * (y_m - self.y_m[a]) - vy * (x_m - self.x_m[a])
+                best_s = float(self.s_m[a] + t * math.sqrt(seg2))
+                best_d2 = d2
+                best_e = -math.copysign(math.sqrt(d2), side)
+        if not math.isfinite(best_d2):
+            best_e = 0.0
+        return best_s, best_e
+
+    def at(self, s_m: float) -> tuple[float, float, float, float]:
+        """Position, heading and curvature at arc length ``s_m``; beyond the end the path goes
+        straight on along its last heading."""
+        end = float(self.s_m[-1])
+        if s_m <= end or len(self) < 2:
+            x = float(np.interp(s_m, self.s_m, self.x_m))
+            y = float(np.interp(s_m, self.s_m, self.y_m))
+            yaw = float(np.interp(s_m, self.s_m, np.unwrap(self.yaw_rad)))
+            k = float(np.interp(s_m, self.s_m, self.curvature_1pm))
+            return x, y, math.remainder(yaw, 2.0 * math.pi), k
+        yaw = float(self.yaw_rad[-1])
+        extra = s_m - end
+        return (float(self.x_m[-1]) + extra * math.cos(yaw),
+                float(self.y_m[-1]) + extra * math.sin(yaw), yaw, 0.0)
+
+    def speed_at(self, s_m: float) -> float:
+        """Target speed (m/s) at arc length ``s_m`` (held beyond the ends)."""
+        return float(np.interp(s_m, self.s_m, self.speed_mps))
+
+
+class SteeringLaw:
+    """Base of the steering laws."""
+
+    def reset(self) -> None:
+        """Forget any state."""
+
+    def update(self, x_m: float, y_m: float, yaw_rad: float, speed_mps: float,
+               path: PathRef) -> float:
+        """Road-wheel steering angle (rad), positive left."""
+        raise NotImplementedError
+
+
+class Lookahead:
+    """Look-ahead distance (m): base + speed x time, clipped."""
+
+    def __init__(self, base_m: float, time_s: float, min_m: float, max_m: float) -> None:
+        self.base_m, self.time_s, self.min_m, self.max_m = base_m, time_s, min_m, max_m
+
+    def __call__(self, speed_mps: float) -> float:
+        return min(max(self.base_m + abs(speed_mps) * self.time_s, self.min_m), self.max_m)
+
+
+def _target_point(x_m: float, y_m: float, path: PathRef, distance_m: float
+                  ) -> tuple[float, float]:
+    s_near, _ = path.nearest(x_m, y_m)
+    tx, ty, _, _ = path.at(s_near + distance_m)
+    return tx, ty
+
+
+class HeadingP(SteeringLaw):
+    """Seed 002: steering = kp x (bearing of the look-ahead point - yaw)."""
+
+    def __init__(self, kp: float, lookahead: Lookahead) -> None:
+        self.kp = kp
+        self.lookahead = lookahead
+
+    def update(self, x_m: float, y_m: float, yaw_rad: float, speed_mps: float,
+               path: PathRef) -> float:
+        tx, ty = _target_point(x_m, y_m, path, self.lookahead(speed_mps))
+        error = math.remainder(math.atan2(ty - y_m, tx - x_m) - yaw_rad, 2.0 * math.pi)
+        return self.kp * error
+
+
+class PurePursuit(SteeringLaw):
+    """Pure pursuit from the rear axle: delta = atan(2 L sin(alpha) / l_d)."""
+
+    def __init__(self, wheelbase_m: float, lookahead: Lookahead) -> None:
+        self.wheelbase_m = wheelbase_m
+        self.lookahead = lookahead
+
+    def update(self, x_m: float, y_m: float, yaw_rad: float, speed_mps: float,
+               path: PathRef) -> float:
+        tx, ty = _target_point(x_m, y_m, path, self.lookahead(speed_mps))
+        dx, dy = tx - x_m, ty - y_m
+        ld = max(math.hypot(dx, dy), 1e-3)
+        alpha = math.remainder(math.atan2(dy, dx) - yaw_rad, 2.0 * math.pi)
+        return math.atan2(2.0 * self.wheelbase_m * math.sin(alpha), ld)
+
+
+class Stanley(SteeringLaw):
+    """Stanley from the front axle: delta = heading error + atan(k e / (v + v_soft))."""
+
+    def __init__(self, wheelbase_m: float, k: float, soft_mps: float) -> None:
+        self.wheelbase_m = wheelbase_m
+        self.k = k
+        self.soft_mps = soft_mps
+
+    def update(self, x_m: float, y_m: float, yaw_rad: float, speed_mps: float,
+               path: PathRef) -> float:
+        fx = x_m + self.wheelbase_m * math.cos(yaw_rad)
+        fy = y_m + self.wheelbase_m * math.sin(yaw_rad)
+        s, error = path.nearest(fx, fy)
+        _, _, path_yaw, kappa = path.at(s)
+        heading_error = math.remainder(path_yaw - yaw_rad, 2.0 * math.pi)
+        # curvature feedforward keeps the front axle on a curve
+        return (heading_error + math.atan2(self.k * error, abs(speed_mps) + self.soft_mps)
+                + math.atan(self.wheelbase_m * kappa))
