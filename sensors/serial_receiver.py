@@ -108,6 +108,10 @@ class SerialReceiver(Receiver):
         data = port.read(min(max(waiting, 1), self.max_read))
         if not data:
             return []
+        if len(data) < self.max_read:  # woken by the first byte: take what came with it
+            more = port.in_waiting
+            if more:
+                data += port.read(min(more, self.max_read - len(data)))
         t_s = self.clock.now_s()
         return [RawBytes(t_s, self.source, unit) for unit in self.framer(data) if unit]
 
