@@ -451,7 +451,9 @@ def _order_chain(points: FloatArray, start_xy: FloatArray, start_dir: FloatArray
     order = [int(np.argmin(d0))]
     visited = np.zeros(n, bool)
     visited[order[0]] = True
-    direction = None if start_dir is None else start_dir / max(float(np.linalg.norm(start_dir)), 1e-9)
+    direction = None
+    if start_dir is not None:
+        direction = start_dir / max(float(np.linalg.norm(start_dir)), 1e-9)
     while not visited.all():
         cur = points[order[-1]]
         rel = points - cur
