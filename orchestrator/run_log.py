@@ -13,34 +13,6 @@ from common.messages import GroundTruth, PoseEstimate
 
 
 @dataclass
-class LapTimer:
-    """Counts start-line crossings from the progress (m) along a closed track of length L (m).
-
-    A crossing is a jump of the progress from the last quarter of the lap to the first quarter,
-    in the driving direction; its time is interpolated between the two samples.
-    """
-
-    lap_length_m: float
-    crossings_s: list[float] = field(default_factory=list)
-    _last_progress_m: float | None = None
-    _last_t_s: float = 0.0
-
-    def update(self, t_s: float, progress_m: float) -> bool:
-        """Feed one sample; True when the start line was crossed since the last one."""
-        crossed = False
-        last = self._last_progress_m
-        if last is not None:
-            length = self.lap_length_m
-            if last > 0.75 * length and progress_m < 0.25 * length:
-                ahead = (length - last) / max(length - last + progress_m, 1e-9)
-                self.crossings_s.append(self._last_t_s + ahead * (t_s - self._last_t_s))
-                crossed = True
-        self._last_progress_m = progress_m
-        self._last_t_s = t_s
-        return crossed
-
-
-@dataclass
 class RunLog:
     """Per-tick samples (appended as the run goes; turned into arrays at the end)."""
 

@@ -31,13 +31,14 @@ from mapper.evaluation import evaluate_map
 from mapper.mapper import Mapper
 from orchestrator.main_loop import Main
 from orchestrator.outputs import HashSink
-from orchestrator.run_log import LapTimer, RunLog
+from orchestrator.run_log import RunLog
 from planner.path_planner import PathPlanner
 from recordings.recorder import Recorder
 from recordings.topics import TRUTH_POSE, TRUTH_TRACK
 from sensors.manager import SensorManager
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
+from simulator.handover import Handover, Phase
 from simulator.tracks import Track, load_track
 from simulator.world import SimWorld
 
@@ -69,13 +70,6 @@ def default_out_dir(root: Path = Path("runs")) -> Path:
         n += 1
         out = root / f"{stamp}_{n}"
     return out
-
-
-class _Phase:
-    EXPLORATION = "exploration"
-    STOPPING = "stopping_after_exploration"
-    HANDOVER = "handover"
-    AUTONOMOUS = "autonomous"
 
 
 def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
@@ -167,18 +161,13 @@ class _SimRunner:
         self.clock = clock
         self.recorder = recorder
         self.log = RunLog()
-        self.laps = LapTimer(track.lap_length_m)
-        self.phase = _Phase.EXPLORATION
-        self.exploration_lap_time_s = math.nan
-        self.handover_time_s = math.nan
-        self.autonomous_crossings_s: list[float] = []
+        self.person = Handover(track, driver, world, overrun_m=config.run.exploration_overrun_m,
+                               standstill_s=config.run.handover_standstill_s)
         self.loop_closure_time_s = math.nan
         self.estop: dict[str, float] | None = None
         self._estop_start: tuple[float, float, float, float] | None = None
         self._estop_path_m = 0.0
-        self._still_since_s: float | None = None
-        self._explore_end_progress_m = math.nan
-        self.sim_periods_ms: list[float] = []
+        self._last_xy = (0.0, 0.0)
 
     def run(self) -> _Result:
         config = self.config
@@ -194,7 +183,7 @@ class _SimRunner:
             t_s = k * dt_s
             if pacer is not None:
                 pacer.sleep_until(t_s)
-            applied = self._applied_command(t_s, command)
+            applied = self.person.command(t_s, self.world.truth(), command)
             raw = self.world.step_to(t_s, applied)
             self.clock.set(t_s)
             truth = self.world.truth()
@@ -203,7 +192,7 @@ class _SimRunner:
             if self.recorder is not None and k % 10 == 0:
                 self.recorder.write(TRUTH_POSE, truth, t_s)
             self._observe(t_s, truth, command)
-            progress.update(t_s, len(self.autonomous_crossings_s), self.phase)
+            progress.update(t_s, len(self.person.autonomous_crossings_s), self.person.phase)
             done, reason, ok = self._done(t_s, truth)
             if done:
                 stop_reason, finished = reason, ok
@@ -211,44 +200,10 @@ class _SimRunner:
         progress.close()
         return _Result(finished, stop_reason, time.perf_counter() - wall0, self.clock.now_s())
 
-    # -------------------------------------------------------------- the person at the side
-    def _applied_command(self, t_s: float, stack_command: ActuatorCommand | None
-                         ) -> ActuatorCommand | None:
-        """What drives the car: the scripted driver until handover, the stack after it."""
-        if self.phase == _Phase.AUTONOMOUS:
-            return stack_command
-        truth = self.world.truth()
-        if self.phase == _Phase.EXPLORATION:
-            return self.driver.command(truth, t_s)
-        # Stopping after the exploration lap, and standing until "go".
-        return ActuatorCommand(t_s, 0.0, 1.0, self.driver.command(truth, t_s).steering_rad,
-                               AsState.READY)
-
     def _observe(self, t_s: float, truth: Any, command: ActuatorCommand) -> None:
         main = self.main
-        progress_m = self.track.progress_m(truth.x_m, truth.y_m)
-        crossed = self.laps.update(t_s, progress_m)
+        self.person.observe(t_s, truth)
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
-        if self.phase == _Phase.EXPLORATION:
-            if crossed and math.isnan(self.exploration_lap_time_s):
-                self.exploration_lap_time_s = self.laps.crossings_s[-1]
-                self._explore_end_progress_m = progress_m
-            if not math.isnan(self.exploration_lap_time_s) and (
-                progress_m >= self.config.run.exploration_overrun_m
-                and progress_m < 0.5 * self.track.lap_length_m
-            ):
-                self.phase = _Phase.STOPPING
-        elif self.phase == _Phase.STOPPING:
-            if speed < 0.05:
-                self._still_since_s = self._still_since_s or t_s
-                if t_s - self._still_since_s >= self.config.run.handover_standstill_s:
-                    self.phase = _Phase.AUTONOMOUS
-                    self.handover_time_s = t_s
-                    self.world.send_go()
-                    log.info("handover to the stack at t=%.2f s", t_s)
-        elif self.phase == _Phase.AUTONOMOUS and crossed:
-            self.autonomous_crossings_s.append(self.laps.crossings_s[-1])
-
         ms = main.map_state
         if ms is not None:
             if ms.loop_closed and math.isnan(self.loop_closure_time_s):
@@ -281,13 +236,13 @@ class _SimRunner:
         controller = self.main.controller
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         state = controller.state
-        if self.phase == _Phase.AUTONOMOUS and state in (AsState.FINISHED, AsState.EMERGENCY):
+        if self.person.phase == Phase.AUTONOMOUS and state in (AsState.FINISHED, AsState.EMERGENCY):
             if speed < 0.05:
                 reason = controller.stop_reason or state.name.lower()
                 if self.estop is None and self._estop_start is not None:
                     return False, "", False
                 return True, reason, state == AsState.FINISHED
-        if self.world.estop_active and self.phase != _Phase.AUTONOMOUS and speed < 0.05:
+        if self.world.estop_active and self.person.phase != Phase.AUTONOMOUS and speed < 0.05:
             return True, "estop", False
         return False, "", False
 
@@ -319,9 +274,8 @@ class _Progress:
 
 def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runner: _SimRunner,
              result: _Result, outputs_sha256: str) -> dict[str, Any]:
-    crossings = runner.autonomous_crossings_s
-    starts = [runner.handover_time_s, *crossings[:-1]] if crossings else []
-    lap_times = [round(end - start, 3) for start, end in zip(starts, crossings, strict=False)]
+    crossings = runner.person.autonomous_crossings_s
+    lap_times = runner.person.lap_times_s()
     errors = runner.log.pose_errors()
     map_state = main.map_state
     map_eval: dict[str, Any] = {}
@@ -337,7 +291,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "laps_completed": len(crossings),
         "lap_times_s": lap_times,
         "best_lap_time_s": min(lap_times) if lap_times else None,
-        "exploration_lap_time_s": _round(runner.exploration_lap_time_s),
+        "exploration_lap_time_s": _round(runner.person.exploration_lap_time_s),
         "cones_hit": len(world.cones_hit),
         "off_track": world.off_track_events,
         "pose_rmse_m": _round(errors["pose_rmse_m"], 4),
