@@ -51,6 +51,10 @@ class PlannerConfig:
     path_step_m: float = 0.5
     cone_clearance_m: float = 0.4
     """Cone centre to car side: half the car's width plus this, at every point of a candidate."""
+    cone_clearance_near_m: float = 0.15
+    """Margin at the car's own position (it is already there): about a cone's base radius."""
+    clearance_ramp_m: float = 4.0
+    """The margin grows from the near to the full value over this distance along a candidate."""
     curvature_limit_fraction: float = 0.9
     """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
     weight_curvature: float = 2.0

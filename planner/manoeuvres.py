@@ -152,9 +152,17 @@ class ManoeuvreGenerator:
             centres = (xy[:, None, :] + self.circle_offsets_m[None, :, None]
                        * np.stack([cos_h, sin_h], axis=1)[:, None, :]).reshape(-1, 2)
             dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
-            clearance = float(np.min(dist)) - self.circle_radius_m
-            if clearance < c.cone_clearance_m and feasible:
-                feasible, reason = False, f"clearance {clearance:.2f} m to a cone"
+            gap = dist.reshape(len(xy), -1).min(axis=1) - self.circle_radius_m
+            clearance = float(np.min(gap))
+            # full margin from ramp_m on; where the car is now only contact counts (it is there)
+            u = s - s[0]
+            margin = c.cone_clearance_near_m + (c.cone_clearance_m - c.cone_clearance_near_m) \
+                * np.clip(u / max(c.clearance_ramp_m, 1e-6), 0.0, 1.0)
+            slack = gap - margin
+            i = int(np.argmin(slack))
+            if slack[i] < 0.0 and feasible:
+                feasible = False
+                reason = f"clearance {gap[i]:.2f} m to a cone at {u[i]:.1f} m"
         step = float(np.mean(np.diff(s))) if len(s) > 1 else 1.0
         cost = c.weight_curvature * float(np.sum(kappa[in_h] ** 2) * step)
         cost += c.weight_offset * off * off
