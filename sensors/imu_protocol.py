@@ -38,8 +38,8 @@ present, samples are stamped ``sensor_time + offset``, the offset being the smal
 per second of sensor time (so serial batching does not bunch samples together and a sample is
 never stamped after it was received); a sensor clock that jumps back (a restart) resets it.
 
-Rejects (``ImuParser.rejects``): ``bad_crc``, ``truncated`` (a packet cut short by the next
-packet's header, or left incomplete at :meth:`ImuParser.flush`), ``nan`` (NaN or infinite
+Rejects (``ImuParser.rejects``): ``bad_crc``, ``truncated`` (a packet interrupted by the header of
+the next one, or left incomplete at :meth:`ImuParser.flush`), ``nan`` (NaN or infinite
 values: counted, never passed on), ``unsupported`` (groups or fields we cannot read, or no
 rate/acceleration), ``junk`` (one per run of bytes outside any packet).
 """
@@ -131,6 +131,9 @@ class ImuParser:
         self._in_junk = False
         self._offset_s: float | None = None
         self._last_sensor_s: float | None = None
+        self._last_receive_s = 0.0
+        self._good_header = b""
+        """Header (first 4 bytes) of the last packet that passed its CRC."""
 
     def reset(self) -> None:
         """Forget partial packets and the clock offset (after a reconnection)."""
@@ -143,6 +146,7 @@ class ImuParser:
         """Take bytes received at ``timestamp_s`` (Clock, s); return the samples completed."""
         out: list[ImuSample] = []
         try:
+            self._last_receive_s = timestamp_s
             self._buf += data
             self._drain(timestamp_s, out)
         except Exception:  # pragma: no cover - defensive: a parser must not kill its thread
@@ -151,13 +155,20 @@ class ImuParser:
             self.rejects["garbled"] += 1
         return out
 
-    def flush(self) -> list[ImuSample]:
-        """End of stream: an incomplete packet left in the buffer is counted as truncated."""
-        if self._buf:
-            if self._buf[0] == SYNC:
-                self.rejects["truncated"] += 1
+    def flush(self, timestamp_s: float | None = None) -> list[ImuSample]:
+        """End of stream: the incomplete packet at the head of the buffer is counted as
+        truncated and the rest is searched for complete packets (returned)."""
+        out: list[ImuSample] = []
+        stamp = self._last_receive_s if timestamp_s is None else timestamp_s
+        try:
+            while self._buf:
+                self._drain(stamp, out)
+                if self._buf:
+                    self._drop(1, "truncated" if self._buf[0] == SYNC else "junk")
+        except Exception:  # pragma: no cover - defensive
+            log.exception("IMU parser flush failed")
             self._buf.clear()
-        return []
+        return out
 
     # -- internals ------------------------------------------------------------------------
 
@@ -180,15 +191,25 @@ class ImuParser:
                 self._drop(1, length)
                 continue
             if len(buf) < length:
-                # Wait for more bytes, unless the next packet's header already started.
-                nxt = buf.find(bytes(buf[:4]), 1)
+                # Wait for more bytes, unless the next packet already started: a repeat of
+                # this header (this one was cut short), or, when this header is not the one
+                # the unit has been sending, that one (this one is a corrupted header).
+                header = bytes(buf[:4])
+                nxt = buf.find(header, 1)
                 if nxt > 0:
                     self._drop(nxt, "truncated")
+                    continue
+                good = self._good_header
+                if good and header != good and buf.find(good, 1) > 0:
+                    self._drop(buf.find(good, 1), "truncated")
                     continue
                 return
             packet = bytes(buf[:length])
             if crc16(packet[1:]) != 0:
+                # Cut short by the next packet (its header inside this span), or corrupted.
                 nxt = buf.find(packet[:4], 1, length)
+                if nxt < 0 and self._good_header:
+                    nxt = buf.find(self._good_header, 1, length)
                 if nxt > 0:
                     self._drop(nxt, "truncated")
                 else:
@@ -196,6 +217,7 @@ class ImuParser:
                 continue
             del buf[:length]
             self._in_junk = False
+            self._good_header = packet[:4]
             sample = self._decode(timestamp_s, packet)
             if sample is not None:
                 out.append(sample)
