@@ -87,9 +87,12 @@ class SerialReceiver(Receiver):
         return f"serial port {self.port} @ {self.baudrate}"
 
     def _open(self) -> None:
-        reset = getattr(self.framer, "reset", None)
-        if callable(reset):
-            reset()
+        # a reopened port starts a new byte stream: drop partial lines / packets (and, for the
+        # IMU, the sensor-clock offset: a replugged unit restarts its clock)
+        for obj in (self.framer, self.intake.parser) if self._opened_once else (self.framer,):
+            reset = getattr(obj, "reset", None)
+            if callable(reset):
+                reset()
         self._serial = serial.serial_for_url(self.port, baudrate=self.baudrate,
                                              timeout=self.read_timeout_s)
 

@@ -182,3 +182,37 @@ def test_missing_port_at_start_is_retried_and_stop_is_prompt(tmp_path: Path) -> 
     t0 = time.monotonic()
     assert receiver.stop(1.0)
     assert time.monotonic() - t0 < 1.0
+
+
+def test_imu_over_pty_packets_in_any_chunking_with_corruption_counted() -> None:
+    from common.messages import ImuSample
+    from sensors.imu_protocol import encode_imu_packet
+    from sensors.serial_receiver import imu_receiver
+
+    master, slave, path = make_pty()
+    clock = RealClock()
+    receiver = imu_receiver(clock, path, 921600, **FAST)
+    samples = [ImuSample(0.005 * (k + 1), 0.1 * k, -0.2, 9.81, 0.01, -0.02, 0.3)
+               for k in range(40)]
+    packets = [encode_imu_packet(s) for s in samples]
+    corrupt = bytearray(packets[10])
+    corrupt[8] ^= 0xFF  # bad CRC
+    packets[10] = bytes(corrupt)
+    stream = b"".join(packets[:20]) + b"\x00junk\x00" + b"".join(packets[20:])
+    try:
+        with receiver:
+            assert receiver.wait_connected(5.0)
+            for i in range(0, len(stream), 33):
+                os.write(master, stream[i:i + 33])
+            assert wait_for(lambda: receiver.intake.count >= 39)
+            _, readings = receiver.intake.take()
+            assert len(readings) == 39
+            assert all(isinstance(r, ImuSample) for r in readings)
+            assert readings[0].accel_z_mps2 == pytest.approx(9.81, abs=1e-5)
+            assert readings[0].gyro_z_radps == pytest.approx(0.3, abs=1e-6)
+            rejects = receiver.stats(clock.now_s()).rejects
+            assert sum(rejects.values()) >= 2  # the bad CRC and the junk
+            assert receiver.is_alive()
+    finally:
+        os.close(master)
+        os.close(slave)
