@@ -69,6 +69,19 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     record.add_argument("--seconds", type=float, help="stop after this long (s)")
     record.set_defaults(func=_record)
 
+    emulate = subparsers.add_parser(
+        "emulate", parents=[common],
+        help="serve the simulated car over real transports (pty serial, slcan CAN, UDP) for drive",
+    )
+    emulate.add_argument("--track", default="default", help="track name or file")
+    emulate.add_argument("--seconds", type=float, help="stop after this long (s)")
+    emulate.add_argument("--write-config", type=Path, metavar="F",
+                         help="write a car config for `drive` pointing at the emulated ports")
+    emulate.add_argument("--summary", type=Path, metavar="F", help="write the summary JSON here")
+    emulate.add_argument("--workdir", type=Path, help="folder for the port links (default: temp)")
+    emulate.add_argument("--seed", type=int, help="random seed of the simulated world")
+    emulate.set_defaults(func=_emulate)
+
 
 def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.sim import SimOptions, run_sim
@@ -131,5 +144,22 @@ def _record(args: argparse.Namespace, config: AppConfig) -> int:
     options = DriveOptions(out_dir=out.parent, record=True, control=False, seconds=args.seconds,
                            recording_name=out.name)
     summary = LiveMain(config, options).run()
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
+    import json
+
+    from simulator.emulator import EmulatorOptions, HardwareEmulator
+
+    options = EmulatorOptions(track=args.track, seconds=args.seconds,
+                              write_config=args.write_config, summary=args.summary,
+                              workdir=args.workdir, seed=args.seed)
+    emulator = HardwareEmulator(config, options)
+    print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
+          f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "
+          f"{emulator.lidar_port}, camera udp {emulator.camera_port}", flush=True)
+    summary = emulator.run()
     print(json.dumps(summary, indent=2))
     return 0

@@ -1,0 +1,226 @@
+"""The hardware emulator: the simulated car served over the car's real transports.
+
+``python main.py emulate --track T --write-config car.toml`` runs the simulator in real time and
+serves its bytes as the hardware does: NMEA on one pseudo-terminal, IMU packets on another, CAN
+through an slcan adapter on a third, VLP-16 packets and camera datagrams over UDP on loopback.
+It takes the actuator frames the stack sends on CAN and drives the simulated car with them.
+``python main.py drive --config car.toml`` in another process then drives it as it would drive
+the car. As on the car, a person (the scripted driver) drives the exploration lap, then the
+RES sends "go" over CAN; like the car, it brakes to a stop when actuator frames stop coming for
+200 ms.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import signal
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+
+from common.clock import RealClock
+from common.config import AppConfig
+from common.messages import ActuatorCommand, CanFrame, RawBytes
+from sensors.can_codec import CanCodec
+from simulator.driver import ScriptedDriver
+from simulator.handover import Handover, Phase
+from simulator.tracks import load_track
+from simulator.transports import PtyPort, SlcanAdapter, UdpSender, free_udp_port
+from simulator.world import SimWorld
+
+log = logging.getLogger(__name__)
+
+ACTUATOR_TIMEOUT_S = 0.2
+"""No actuator frame for this long: the car brakes to a stop (its own watchdog)."""
+IDLE_END_S = 2.0
+"""After the handover, standing still with no actuator frames for this long ends the run."""
+
+
+@dataclass
+class EmulatorOptions:
+    """``emulate`` options."""
+
+    track: str
+    seconds: float | None = None
+    write_config: Path | None = None
+    summary: Path | None = None
+    workdir: Path | None = None
+    seed: int | None = None
+    step_s: float = 0.005
+
+
+class HardwareEmulator:
+    """Runs a SimWorld in real time behind real transports."""
+
+    def __init__(self, config: AppConfig, options: EmulatorOptions) -> None:
+        self.config = config
+        self.options = options
+        if options.seed is not None:
+            config.sim.seed = options.seed
+        self.track = load_track(options.track)
+        self.world = SimWorld(config, self.track, config.sim.seed)
+        self.driver = ScriptedDriver(self.track, config.car, config.sim.seed)
+        self.person = Handover(self.track, self.driver, self.world,
+                               overrun_m=config.run.exploration_overrun_m,
+                               standstill_s=config.run.handover_standstill_s)
+        self.codec = CanCodec(config.sensors.can.dbc or None)
+        workdir = options.workdir or Path(tempfile.mkdtemp(prefix="fsd-emulator-"))
+        workdir.mkdir(parents=True, exist_ok=True)
+        self.workdir = workdir
+        self.gps = PtyPort(workdir / "gps")
+        self.imu = PtyPort(workdir / "imu")
+        self.can = SlcanAdapter(workdir / "can")
+        self.lidar_port = free_udp_port()
+        self.camera_port = free_udp_port()
+        self.lidar = UdpSender("127.0.0.1", self.lidar_port)
+        self.camera = UdpSender("127.0.0.1", self.camera_port)
+        self.frames_in = 0
+        self.unknown_frames_in = 0
+        self.last_command: ActuatorCommand | None = None
+        self.last_command_wall_s = -math.inf
+        self.ever_commanded = False
+        self._stop = False
+
+    # ------------------------------------------------------------------ config for `drive`
+    def drive_config(self) -> dict[str, Any]:
+        """Overrides that point `drive` at what this emulator serves."""
+        sim = self.config.sim
+        return {
+            "sensors": {
+                "gps": {"port": str(self.gps.link_path)},
+                "imu": {"port": str(self.imu.link_path)},
+                "can": {"interface": "slcan", "channel": str(self.can.link_path)},
+                "lidar": {"host": "127.0.0.1", "port": self.lidar_port},
+                "camera": {"host": "127.0.0.1", "port": self.camera_port},
+            },
+            "sim": {"origin_lat_deg": sim.origin_lat_deg, "origin_lon_deg": sim.origin_lon_deg,
+                    "origin_alt_m": sim.origin_alt_m,
+                    "start_heading_enu_rad": sim.start_heading_enu_rad},
+        }
+
+    def write_drive_config(self, path: Path) -> None:
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        tmp.write_text("# Written by `main.py emulate`: the emulated car's ports.\n"
+                       + tomli_w.dumps(self.drive_config()))
+        tmp.replace(path)  # atomic: `drive` never reads half a file
+
+    # ------------------------------------------------------------------ the run
+    def _dispatch(self, raw: list[RawBytes | CanFrame]) -> None:
+        for unit in raw:
+            if isinstance(unit, CanFrame):
+                self.can.send_frame(unit)
+            elif unit.source == "gps":
+                self.gps.write(unit.payload)
+            elif unit.source == "imu":
+                self.imu.write(unit.payload)
+            elif unit.source == "lidar":
+                self.lidar.send(unit.payload)
+            elif unit.source == "camera":
+                self.camera.send(unit.payload)
+
+    def _take_commands(self, t_s: float, wall_s: float) -> None:
+        for frame in self.can.poll(t_s):
+            self.frames_in += 1
+            command = self.codec.decode_command(frame)
+            if command is None:
+                self.unknown_frames_in += 1
+                continue
+            self.last_command = command
+            self.last_command_wall_s = wall_s
+            self.ever_commanded = True
+
+    def _stack_command(self, t_s: float, wall_s: float) -> ActuatorCommand:
+        fresh = wall_s - self.last_command_wall_s <= ACTUATOR_TIMEOUT_S
+        if fresh and self.last_command is not None:
+            c = self.last_command
+            return ActuatorCommand(t_s, c.throttle, c.brake, c.steering_rad, c.state)
+        return ActuatorCommand.full_brake(t_s)
+
+    def run(self) -> dict[str, Any]:
+        """Serve until ``seconds``, a signal, or the car standing idle after the stack is done."""
+        options = self.options
+        if options.write_config is not None:
+            self.write_drive_config(options.write_config)
+        previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+
+        def on_signal(signum: int, _frame: Any) -> None:
+            self._stop = True
+
+        for s in previous:
+            signal.signal(s, on_signal)
+        clock = RealClock()
+        stop_reason = "signal"
+        idle_since: float | None = None
+        next_s = 0.0
+        try:
+            while not self._stop:
+                next_s += options.step_s
+                clock.sleep_until(next_s)
+                t_s = clock.now_s()
+                self._take_commands(t_s, t_s)
+                truth = self.world.truth()
+                stack = self._stack_command(t_s, t_s)
+                applied = self.person.command(t_s, truth, stack)
+                self._dispatch(self.world.step_to(t_s, applied))
+                truth = self.world.truth()
+                self.person.observe(t_s, truth)
+                if options.seconds is not None and t_s >= options.seconds:
+                    stop_reason = "time limit"
+                    break
+                speed = math.hypot(truth.vx_mps, truth.vy_mps)
+                commands_stopped = t_s - self.last_command_wall_s > IDLE_END_S
+                if self.person.phase == Phase.AUTONOMOUS and speed < 0.05 and commands_stopped:
+                    idle_since = idle_since if idle_since is not None else t_s
+                    if t_s - idle_since >= IDLE_END_S:
+                        stop_reason = "actuator frames stopped; car at standstill"
+                        break
+                else:
+                    idle_since = None
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+            for port in (self.gps, self.imu, self.can):
+                port.close()
+            self.lidar.close()
+            self.camera.close()
+        summary = self.summary(stop_reason, clock.now_s())
+        if options.summary is not None:
+            options.summary.write_text(json.dumps(summary, indent=2) + "\n")
+        return summary
+
+    def summary(self, stop_reason: str, elapsed_s: float) -> dict[str, Any]:
+        person = self.person
+        return {
+            "track": self.track.name,
+            "stop_reason": stop_reason,
+            "elapsed_s": round(elapsed_s, 3),
+            "exploration_lap_time_s": (None if math.isnan(person.exploration_lap_time_s)
+                                       else round(person.exploration_lap_time_s, 3)),
+            "handover_time_s": (None if math.isnan(person.handover_time_s)
+                                else round(person.handover_time_s, 3)),
+            "laps_completed": len(person.autonomous_crossings_s),
+            "lap_times_s": person.lap_times_s(),
+            "cones_hit": len(self.world.cones_hit),
+            "off_track": self.world.off_track_events,
+            "actuator_frames_in": self.frames_in,
+            "non_command_frames_in": self.unknown_frames_in,
+            "dropped_serial_bytes": self.gps.dropped_bytes + self.imu.dropped_bytes,
+            "can_bad_lines": self.can.bad_lines,
+            "wall_time_s": round(elapsed_s, 3),
+        }
+
+
+def wait_for_file(path: Path, timeout_s: float) -> bool:
+    """True once ``path`` exists (for scripts that start `drive` after `emulate`)."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if path.exists():
+            return True
+        time.sleep(0.05)
+    return False
