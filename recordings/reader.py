@@ -124,7 +124,9 @@ class RecordingReader:
             self.bad_chunks = 0
             self._decoders: dict[int, Callable[[bytes], Any]] = {}
             self._factory = DecoderFactory()
-            if not self._load_summary():
+            self.indexed = self._load_summary()
+            """True when the file's own summary index was used (a complete file)."""
+            if not self.indexed:
                 scan = scan_data_section(self._file, self.size_bytes)
                 self._units = scan.units
                 self.schemas = scan.schemas
@@ -142,6 +144,7 @@ class RecordingReader:
     def _load_summary(self) -> bool:
         """Index from the file's summary; False when it has none that can be used."""
         try:
+            self._file.seek(0)
             seeking = SeekingReader(self._file, validate_crcs=True)
             summary = seeking.get_summary()
             if summary is None:
@@ -317,6 +320,7 @@ def scan_data_section(stream: IO[bytes], size_bytes: int) -> ScanResult:
     offset = MAGIC_SIZE
     stream.seek(offset)
     sequence = 0
+    data_end = False
     while True:
         header = stream.read(_RECORD_HEADER.size)
         if not header:
@@ -364,7 +368,9 @@ def scan_data_section(stream: IO[bytes], size_bytes: int) -> ScanResult:
             elif opcode == Opcode.METADATA:
                 metadata = Metadata.read(ReadDataStream(io.BytesIO(body)))
                 result.metadata[metadata.name] = dict(metadata.metadata)
-            elif opcode in (Opcode.DATA_END, Opcode.FOOTER):
+            elif opcode == Opcode.DATA_END:
+                data_end = True
+            elif opcode == Opcode.FOOTER:
                 result.complete = True
                 result.readable_bytes = offset
                 break
@@ -376,7 +382,9 @@ def scan_data_section(stream: IO[bytes], size_bytes: int) -> ScanResult:
         sequence += 1
         offset += _RECORD_HEADER.size + length
         result.readable_bytes = offset
-    # Channels must have their schemas; drop messages of channels never declared.
+    if data_end and not result.complete:
+        result.note = "all data is present but the summary and footer are cut off"
+    # Drop loose messages of channels never declared.
     known = set(result.channels)
     result.units = [u for u in result.units if u.message is None or u.message.channel_id in known]
     return result
