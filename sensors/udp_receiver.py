@@ -12,6 +12,7 @@ import logging
 import socket
 
 from common.clock import Clock
+from common.config import AppConfig
 from common.messages import RawBytes
 from sensors.receiver import Intake, Parser, RawUnit, Receiver
 
@@ -90,7 +91,7 @@ class UdpReceiver(Receiver):
         return units
 
 
-def lidar_receiver(clock: Clock, config: object, host: str, port: int,
+def lidar_receiver(clock: Clock, config: AppConfig, host: str, port: int,
                    parser: Parser | None = None, **kwargs: float | int) -> UdpReceiver:
     """A VLP-16 receiver (``sensors.lidar_parser.LidarParser(config)``)."""
     if parser is None:
