@@ -72,6 +72,8 @@ class UkfConfig:
     static_min_samples: int = 50
     static_gyro_threshold_radps: float = 0.03
     static_accel_threshold_mps2: float = 0.4
+    lateral_model_sigma_mps2: float = 1.0
+    """Unmodelled lateral dynamics (tangential lever-arm term, slip build-up): vy process noise."""
     lateral_velocity_sigma_mps: float = 0.05
     """Without GNSS velocity the rear axle's lateral speed is held at zero (seed 001, II.A)."""
     max_predict_dt_s: float = 0.05
@@ -102,7 +104,7 @@ class UkfConfig:
     start_heading_known: bool = False
     """True: the world frame's heading in ENU is config.sim.start_heading_enu_rad (dual antenna,
     magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
-    heading_estimate_samples: int = 20
+    heading_estimate_samples: int = 50
     """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
     heading_estimate_max_yaw_rate_radps: float = 0.1
     track_alignment_distance_m: float = 20.0

@@ -236,7 +236,7 @@ class TimeSmoother:
         sel = self.published()
         n = int(np.count_nonzero(sel))
         count = self.match_count[sel] + 1.0
-        var = self.sum_sq_m2[sel] / np.maximum(count - 1.0, 1.0) / count[:, None]
+        var = self.sum_sq_m2[sel] / (np.maximum(count - 1.0, 1.0) * count)[:, None]
         var = np.maximum(var, sigma_floor_m**2)
         cov = np.zeros((n, 2, 2))
         cov[:, 0, 0] = var[:, 0]

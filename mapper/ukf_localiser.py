@@ -220,7 +220,7 @@ class UkfLocaliser:
         self.count("imu", "applied")
         if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
             self._last_lateral_s = t
-            self._update_linear("lateral", np.zeros(1), _row(IVY),
+            self._update_linear("lateral", np.array([-self.x[IVY]]), _row(IVY),
                                 np.array([[cfg.lateral_velocity_sigma_mps**2]]), gate=math.inf)
 
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
@@ -244,7 +244,7 @@ class UkfLocaliser:
             1e-6 * dt_s,
             cfg.gyro_bias_sigma_radps**2 * dt_s,
             q_acc,
-            q_acc,
+            q_acc + cfg.lateral_model_sigma_mps2**2 * dt_s,
             (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 + nu**2 * 1e-4 * dt_s,
         ])
         mean[IYAW] = wrap_angle(float(mean[IYAW]))

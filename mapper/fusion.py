@@ -1,0 +1,211 @@
+"""Fusion plumbing: the delay buffer, prediction to now, motion compensation, the GNSS frame.
+
+Seed 000, 6.2.1 (first method): LiDAR (about 10 ms) and camera (about 100 ms) detections arrive
+late and out of order with the IMU, odometry and GNSS. Every reading goes into a
+:class:`DelayBuffer`; the filter is kept *lagged* at the latest time every live source has
+reported (the horizon), and the buffered readings up to the horizon are applied in the order they
+were made. The pose handed to control is the lagged state predicted forward to now with the
+buffered IMU samples (:func:`predict_forward`, the mean only: cheap, and the gap is short).
+
+The GNSS world frame (:class:`GnssFrameEstimator`): the ENU origin is the first fix; the world
+frame is the start pose, so its heading in ENU is needed. Either it is known (a dual antenna, a
+magnetometer or a surveyed start: ``UkfConfig.start_heading_known`` takes
+``config.sim.start_heading_enu_rad``) or it is estimated, by default from the GNSS course over
+ground against the filter's own course (gyro-integrated yaw plus slip angle) once moving above
+``gnss_min_speed_mps``, averaged over ``heading_estimate_samples`` fixes; without courses (a
+GGA-only receiver) by aligning the GNSS track with the filter's over the first
+``track_alignment_distance_m`` (2-D Procrustes). The start position in ENU is then the mean over
+the collected fixes of ``fix - R(heading) p_filter``.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import math
+from collections import Counter
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.conventions import LocalTangentFrame, WorldFrame, wrap_angle
+from common.messages import ConeDetection, ImuSample, Reading
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+
+class DelayBuffer:
+    """Readings from several streams, released in timestamp order up to the common horizon.
+
+    ``push(stream, reading, now_s)``; ``pop_ready(now_s)`` returns the readings whose timestamp is
+    at most :meth:`horizon`: the smallest latest-timestamp over the streams heard from within
+    ``max_delay_s`` of ``now_s``, never older than ``now_s - max_delay_s`` (a dead source does
+    not stall the filter). A reading older than what was already released is counted in
+    ``late`` and dropped (it cannot be applied in order).
+    """
+
+    def __init__(self, max_delay_s: float) -> None:
+        self.max_delay_s = max_delay_s
+        self._heap: list[tuple[float, int, str, Reading]] = []
+        self._seq = itertools.count()
+        self.latest_s: dict[str, float] = {}
+        self.heard_s: dict[str, float] = {}
+        self.released_s = -math.inf
+        self.late: Counter[str] = Counter()
+
+    def __len__(self) -> int:
+        return len(self._heap)
+
+    def push(self, stream: str, reading: Reading, now_s: float) -> bool:
+        """Buffer ``reading``; False (counted) when it is older than the released horizon."""
+        t = reading.timestamp_s
+        if t > self.latest_s.get(stream, -math.inf):
+            self.latest_s[stream] = t
+        self.heard_s[stream] = now_s
+        if t < self.released_s:
+            self.late[stream] += 1
+            return False
+        heapq.heappush(self._heap, (t, next(self._seq), stream, reading))
+        return True
+
+    def horizon(self, now_s: float) -> float:
+        """The time up to which every live stream has reported (s)."""
+        live = [self.latest_s[s] for s, heard in self.heard_s.items()
+                if now_s - heard <= self.max_delay_s]
+        h = min(live) if live else now_s
+        return max(h, now_s - self.max_delay_s)
+
+    def pop_ready(self, now_s: float) -> list[tuple[str, Reading]]:
+        """The buffered readings up to the horizon, in timestamp order (ties: arrival order)."""
+        h = self.horizon(now_s)
+        out: list[tuple[str, Reading]] = []
+        heap = self._heap
+        while heap and heap[0][0] <= h:
+            _t, _n, stream, reading = heapq.heappop(heap)
+            out.append((stream, reading))
+        if out:
+            self.released_s = max(self.released_s, out[-1][1].timestamp_s)
+        return out
+
+
+def predict_forward(state: FloatArray, t_from_s: float, samples: Sequence[ImuSample],
+                    gyro_bias_radps: float, accel_bias_mps2: FloatArray,
+                    imu_x_m: float = 0.0) -> tuple[FloatArray, float]:
+    """Dead-reckon the mean state (x, y, yaw, vx, vy, yaw rate) (6,) from ``t_from_s`` through
+    the IMU ``samples`` newer than it; returns (state (6,), time reached)."""
+    x, y, yaw, vx, vy, w = (float(v) for v in state[:6])
+    t = t_from_s
+    bx, by = float(accel_bias_mps2[0]), float(accel_bias_mps2[1])
+    for s in samples:
+        dt = s.timestamp_s - t
+        if dt <= 0.0:
+            continue
+        dt = min(dt, 0.05)
+        c, sn = math.cos(yaw), math.sin(yaw)
+        x += (vx * c - vy * sn) * dt
+        y += (vx * sn + vy * c) * dt
+        yaw += w * dt
+        w = s.gyro_z_radps - gyro_bias_radps
+        vx += (s.accel_x_mps2 - bx + w * w * imu_x_m + w * vy) * dt
+        t = s.timestamp_s
+    return np.array([x, y, wrap_angle(yaw), vx, vy, w]), t
+
+
+def compensate_motion(cones: Sequence[ConeDetection], t_ref_s: float, vx_mps: float,
+                      vy_mps: float, yaw_rate_radps: float) -> FloatArray:
+    """Vehicle-frame detections (N, 2) moved to the vehicle frame at ``t_ref_s``.
+
+    A detection seen at ``t`` is a fixed world point; the car moves by (vx, vy, w) over
+    ``t_ref_s - t``. Detections already stamped ``t_ref_s`` are unchanged."""
+    out = np.empty((len(cones), 2))
+    for i, c in enumerate(cones):
+        dt = t_ref_s - c.timestamp_s
+        if not math.isfinite(dt) or abs(dt) < 1e-4:
+            out[i] = (c.x_m, c.y_m)
+            continue
+        th = yaw_rate_radps * dt
+        px, py = c.x_m - vx_mps * dt, c.y_m - vy_mps * dt
+        ct, st = math.cos(th), math.sin(th)
+        out[i] = (ct * px + st * py, -st * px + ct * py)
+    return out
+
+
+class GnssFrameEstimator:
+    """Finds the world frame (the start pose) in the ENU frame of the first fix.
+
+    Feed :meth:`add` every fix (ENU east/north, speed, ENU course, the filter's state at the
+    fix's time) until :attr:`frame` is set.
+    """
+
+    def __init__(self, enu: LocalTangentFrame, known_heading_enu_rad: float | None,
+                 heading_samples: int, min_speed_mps: float, alignment_distance_m: float,
+                 min_fixes: int = 10) -> None:
+        self.enu = enu
+        self.known_heading = known_heading_enu_rad
+        self.heading_samples = max(1, heading_samples)
+        self.min_speed_mps = min_speed_mps
+        self.alignment_distance_m = alignment_distance_m
+        self.min_fixes = min_fixes
+        self._en: list[tuple[float, float]] = []
+        self._p: list[tuple[float, float]] = []
+        self._heading_sin = 0.0
+        self._heading_cos = 0.0
+        self._n_heading = 0
+        self._weight_heading = 0.0
+        self._travel_m = 0.0
+        self.frame: WorldFrame | None = None
+        self.method = ""
+
+    def add(self, east_m: float, north_m: float, speed_mps: float, course_enu_rad: float,
+            state: FloatArray) -> WorldFrame | None:
+        """One fix with the filter's state (6,) at its time; returns the frame once found."""
+        if self.frame is not None:
+            return self.frame
+        px, py, yaw, vx, vy = (float(v) for v in state[:5])
+        if self._p:
+            self._travel_m += math.hypot(px - self._p[-1][0], py - self._p[-1][1])
+        self._en.append((east_m, north_m))
+        self._p.append((px, py))
+        if (math.isfinite(course_enu_rad) and math.isfinite(speed_mps)
+                and speed_mps >= self.min_speed_mps and vx > 0.5 * self.min_speed_mps):
+            # Weighted by speed^2: the course's noise falls as 1 / speed.
+            h = wrap_angle(course_enu_rad - yaw - math.atan2(vy, vx))
+            w = speed_mps * speed_mps
+            self._heading_sin += w * math.sin(h)
+            self._heading_cos += w * math.cos(h)
+            self._n_heading += 1
+        heading: float | None = None
+        if self.known_heading is not None:
+            if len(self._en) >= self.min_fixes:
+                heading, self.method = self.known_heading, "known"
+        elif self._n_heading >= self.heading_samples:
+            heading = math.atan2(self._heading_sin, self._heading_cos)
+            self.method = "course"
+        elif self._travel_m >= self.alignment_distance_m and self._n_heading == 0:
+            heading = self._procrustes_heading()
+            self.method = "track_alignment"
+        if heading is None:
+            return None
+        en = np.asarray(self._en)
+        p = np.asarray(self._p)
+        c, s = math.cos(heading), math.sin(heading)
+        rotated = np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1]], axis=1)
+        start = (en - rotated).mean(axis=0)
+        self.frame = WorldFrame(self.enu, float(start[0]), float(start[1]), wrap_angle(heading))
+        log.info("GNSS world frame from %d fixes (%s): start at E %.2f N %.2f m, heading %.4f "
+                 "rad", len(self._en), self.method, start[0], start[1], heading)
+        return self.frame
+
+    def _procrustes_heading(self) -> float:
+        """Rotation (rad) that best maps the filter's track onto the GNSS track (2-D)."""
+        en = np.asarray(self._en)
+        p = np.asarray(self._p)
+        a = p - p.mean(axis=0)
+        b = en - en.mean(axis=0)
+        num = float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]))
+        den = float(np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
+        return math.atan2(num, den)

@@ -1,0 +1,328 @@
+"""The Mapper (Tier 2): readings in, :class:`MapState` out.
+
+Backends (``config.mapper.backend``):
+
+- ``slam``: EKF SLAM of seed 000 (:class:`mapper.ekf_slam.EkfSlam`) maps and localises;
+- ``smoother``: seed 002's pipeline: the UKF of seed 001 gives the pose, LiDAR objects are put
+  in the world (object localisation), filtered and merged by the time smoother.
+
+Either way, once the loop is closed (SLAM's controlled loop closure, or for the smoother: back
+within ``fusion.loop_close_radius_m`` of the start after ``fusion.loop_min_distance_m`` of
+travel) the map is frozen (``MapState.map_frozen``) and the car localises on it with the UKF and
+its cone update. Camera cones bring colour (a vote per associated detection); LiDAR brings
+position. The UKF runs in both backends (so it is calibrated and warm at closure; it is cheap).
+
+Timing (seed 000, 6.2.1): readings are applied in the order they were made through a
+:class:`mapper.fusion.DelayBuffer`; the output pose is the lagged estimate predicted forward to
+the newest IMU sample. An :meth:`update` call with a few readings costs one short
+prediction and no map work; the heavy work happens once per LiDAR sweep.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter, deque
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from common.config import AppConfig
+from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world
+from common.messages import (
+    CameraCones,
+    ConeColour,
+    ConeMap,
+    GpsFix,
+    ImuSample,
+    LidarCones,
+    MapState,
+    PoseEstimate,
+    Reading,
+    SteeringAngle,
+    WheelSpeeds,
+)
+from mapper.fusion import DelayBuffer, GnssFrameEstimator, compensate_motion, predict_forward
+from mapper.object_filter import ObjectFilter, detection_sizes, localise_objects
+from mapper.time_smoother import N_COLOURS, TimeSmoother
+from mapper.ukf_localiser import UkfLocaliser
+
+log = logging.getLogger(__name__)
+
+_STREAMS: dict[type, str] = {
+    ImuSample: "imu",
+    WheelSpeeds: "wheels",
+    SteeringAngle: "steering",
+    GpsFix: "gps",
+    LidarCones: "lidar",
+    CameraCones: "camera",
+}
+
+
+class Mapper:
+    """Maps and localises from parsed readings; see the module docstring.
+
+    ``world_frame`` is the GNSS world frame once known (else None); ``stats`` counts applied,
+    rejected and skipped measurements per sensor.
+    """
+
+    def __init__(self, config: AppConfig) -> None:
+        self.config = config
+        mc = config.mapper
+        self.backend = mc.backend
+        self.ukf = UkfLocaliser(mc.ukf, config.car)
+        self.slam: Any = None
+        if self.backend == "slam":
+            from mapper.ekf_slam import EkfSlam
+
+            self.slam = EkfSlam(mc, config.car)
+        self.smoother = TimeSmoother(mc.smoother)
+        self.object_filter = ObjectFilter(mc.object_filter)
+        self.buffer = DelayBuffer(mc.fusion.max_delay_s)
+        self.world_frame: WorldFrame | None = None
+        self._enu: LocalTangentFrame | None = None
+        self._frame_estimator: GnssFrameEstimator | None = None
+        self._steer: SteeringAngle | None = None
+        self._last_wheels_s: float | None = None
+        self._recent_imu: deque[ImuSample] = deque()
+        self.odometer_m = 0.0
+        self.map_frozen = False
+        self.loop_closed = False
+        self._frozen_map: ConeMap | None = None
+        self._frozen_votes = np.zeros((0, N_COLOURS))
+        self._cones_cache: ConeMap = ConeMap.empty()
+        self._cones_dirty = False
+        self._counts: dict[str, Counter[str]] = {}
+        self._state = MapState(0.0, PoseEstimate(0.0, 0.0, 0.0, 0.0), ConeMap.empty(),
+                               backend=self.backend)
+
+    # -- public -------------------------------------------------------------------------------
+
+    def update(self, readings: Sequence[Reading], now_s: float) -> MapState:
+        """Take parsed readings (time order; other types ignored) and return the state at now."""
+        for r in readings:
+            stream = _STREAMS.get(type(r))
+            if stream is None:
+                continue
+            if not math.isfinite(r.timestamp_s):
+                self._count(stream, "rejected_bad_time")
+                continue
+            if self.buffer.push(stream, r, now_s) and isinstance(r, ImuSample):
+                self._recent_imu.append(r)
+        for stream, r in self.buffer.pop_ready(now_s):
+            try:
+                self._apply(stream, r)
+            except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:
+                self._count(stream, "error")
+                log.warning("mapper: %s reading at %.3f s failed: %s", stream, r.timestamp_s, exc)
+        self._state = self._make_state(now_s)
+        return self._state
+
+    def state(self) -> MapState:
+        """The last :class:`MapState` returned by :meth:`update`."""
+        return self._state
+
+    def freeze(self, known_map: ConeMap | None = None) -> None:
+        """Freeze the map: the current one, or ``known_map`` (a surveyed map); from now on the
+        UKF localises against it."""
+        cone_map = known_map if known_map is not None else self._live_map()
+        if self.slam is not None and not self.map_frozen and known_map is None:
+            self.ukf.reset(self.slam.pose())
+            self.ukf.x[3:] = self._slam_velocity()
+        self._frozen_map = cone_map
+        votes = np.zeros((len(cone_map), N_COLOURS))
+        known = cone_map.colour > int(ConeColour.UNKNOWN)
+        votes[np.flatnonzero(known), cone_map.colour[known]] = 3.0
+        self._frozen_votes = votes
+        self.map_frozen = True
+        self._cones_dirty = True
+        log.info("map frozen with %d cones", len(cone_map))
+
+    @property
+    def stats(self) -> dict[str, dict[str, int]]:
+        """Counts per sensor and outcome: applied / rejected / skipped_... / late."""
+        out: dict[str, dict[str, int]] = {}
+        for source in (self.ukf.stats, self._counts):
+            for sensor, counter in source.items():
+                out.setdefault(sensor, {}).update(counter)
+        for stream, n in self.buffer.late.items():
+            out.setdefault(stream, {})["late"] = n
+        if self.object_filter.rejects:
+            out["object_filter"] = dict(self.object_filter.rejects)
+        if self.slam is not None:
+            out["slam"] = dict(self.slam.stats)
+        return out
+
+    # -- per reading --------------------------------------------------------------------------
+
+    def _count(self, sensor: str, outcome: str) -> None:
+        self._counts.setdefault(sensor, Counter())[outcome] += 1
+
+    def _slam_active(self) -> bool:
+        return self.slam is not None and not self.map_frozen
+
+    def _apply(self, stream: str, r: Reading) -> None:
+        if isinstance(r, ImuSample):
+            self.ukf.predict(r)
+            if self._slam_active():
+                self.slam.predict(r)
+        elif isinstance(r, WheelSpeeds):
+            if self._last_wheels_s is not None:
+                dt = r.timestamp_s - self._last_wheels_s
+                if 0.0 < dt < 1.0:
+                    self.odometer_m += abs(r.mean_rear_mps) * dt
+            self._last_wheels_s = r.timestamp_s
+            self.ukf.update_odometry(r, self._steer)
+            if self._slam_active():
+                self.slam.update_odometry(r, self._steer)
+        elif isinstance(r, SteeringAngle):
+            self._steer = r
+        elif isinstance(r, GpsFix):
+            self._on_gps(r)
+        elif isinstance(r, LidarCones):
+            self._on_lidar(r)
+        elif isinstance(r, CameraCones):
+            self._on_camera(r)
+
+    def _on_gps(self, fix: GpsFix) -> None:
+        cfg = self.config.mapper.ukf
+        if fix.fix_quality == 0 or not (math.isfinite(fix.lat_deg)
+                                        and math.isfinite(fix.lon_deg)):
+            self._count("gnss", "rejected_invalid")
+            return
+        if self._enu is None:
+            alt = fix.altitude_m if math.isfinite(fix.altitude_m) else 0.0
+            self._enu = LocalTangentFrame(fix.lat_deg, fix.lon_deg, alt)
+            known = self.config.sim.start_heading_enu_rad if cfg.start_heading_known else None
+            self._frame_estimator = GnssFrameEstimator(
+                self._enu, known, cfg.heading_estimate_samples, cfg.gnss_min_speed_mps,
+                cfg.track_alignment_distance_m)
+        e, n, _ = self._enu.to_enu(fix.lat_deg, fix.lon_deg, self._enu.alt0_m)
+        east, north = float(e), float(n)
+        if self.world_frame is None:
+            assert self._frame_estimator is not None
+            self.world_frame = self._frame_estimator.add(east, north, fix.speed_mps,
+                                                         fix.course_rad, self.ukf.x)
+            self._count("gnss", "frame_pending" if self.world_frame is None else "frame_found")
+            return
+        xy = self.world_frame.enu_to_world(east, north).reshape(2)
+        self.ukf.update_gnss_position(xy)
+        course = (self.world_frame.enu_yaw_to_world_yaw(fix.course_rad)
+                  if math.isfinite(fix.course_rad) else math.nan)
+        self.ukf.update_gnss_velocity(fix.speed_mps, course)
+        if self._slam_active():
+            self.slam.update_gps_xy(xy, np.eye(2) * cfg.gnss_position_sigma_m**2,
+                                    fix.timestamp_s)
+
+    def _on_lidar(self, sweep: LidarCones) -> None:
+        cones = self.object_filter.filter(sweep.cones)
+        if self._slam_active():
+            self.slam.update_cones(cones, sweep.timestamp_s)
+            self._cones_dirty = True
+            if self.slam.try_close_loop():
+                self.loop_closed = True
+                self.freeze()
+            return
+        if not cones:
+            return
+        x = self.ukf.x
+        xy_vehicle = compensate_motion(cones, sweep.timestamp_s, float(x[3]), float(x[4]),
+                                       float(x[5]))
+        if self.map_frozen:
+            assert self._frozen_map is not None
+            self.ukf.update_cones_on_map(cones, self._frozen_map, xy_vehicle)
+            return
+        pose = (float(x[0]), float(x[1]), float(x[2]))
+        xy_world = vehicle_to_world(xy_vehicle, *pose).reshape(-1, 2)
+        lidar = vehicle_to_world([self.config.car.lidar_x_m, 0.0], *pose).reshape(2)
+        colours = np.array([int(c.colour) for c in cones], np.int64)
+        self.smoother.update(xy_world, detection_sizes(cones),
+                             (float(lidar[0]), float(lidar[1]), pose[2]), colours)
+        self._cones_dirty = True
+        fc = self.config.mapper.fusion
+        if (self.odometer_m >= fc.loop_min_distance_m
+                and math.hypot(pose[0], pose[1]) <= fc.loop_close_radius_m):
+            self.loop_closed = True
+            log.info("smoother loop closed after %.1f m", self.odometer_m)
+            self.freeze()
+
+    def _on_camera(self, frame: CameraCones) -> None:
+        fc = self.config.mapper.fusion
+        cones = [c for c in frame.cones
+                 if math.isfinite(c.x_m) and math.isfinite(c.y_m)
+                 and int(ConeColour.UNKNOWN) < int(c.colour) < N_COLOURS]
+        if not cones:
+            return
+        if self._slam_active():
+            self.slam.add_colour_votes(cones, self.slam.pose())
+            self._cones_dirty = True
+            return
+        x = self.ukf.x
+        xy = localise_objects(cones, float(x[0]), float(x[1]), float(x[2]))
+        colours = np.array([int(c.colour) for c in cones], np.int64)
+        weights = np.array([min(max(c.confidence, 0.0), 1.0) for c in cones])
+        if self.map_frozen:
+            assert self._frozen_map is not None
+            if len(self._frozen_map) == 0:
+                return
+            from scipy.spatial import cKDTree
+
+            dist, idx = cKDTree(self._frozen_map.xy_m).query(xy, k=1,
+                                                             distance_upper_bound=fc.colour_gate_m)
+            ok = np.isfinite(dist)
+            np.add.at(self._frozen_votes, (np.asarray(idx)[ok], colours[ok]), weights[ok])
+        else:
+            self.smoother.add_colour_votes(xy, colours, fc.colour_gate_m, weights)
+        self._cones_dirty = True
+
+    # -- output -------------------------------------------------------------------------------
+
+    def _slam_velocity(self) -> np.ndarray:
+        p = self.slam.pose()
+        return np.array([p.vx_mps, p.vy_mps, p.yaw_rate_radps])
+
+    def _live_map(self) -> ConeMap:
+        if self._slam_active():
+            cone_map: ConeMap = self.slam.cone_map()
+            return cone_map
+        return self.smoother.cone_map()
+
+    def _cones(self) -> ConeMap:
+        if not self._cones_dirty:
+            return self._cones_cache
+        self._cones_dirty = False
+        if self.map_frozen and self._frozen_map is not None:
+            fm = self._frozen_map
+            votes = self._frozen_votes
+            colour = np.where(votes.max(axis=1) > 0.0, np.argmax(votes, axis=1),
+                              int(ConeColour.UNKNOWN)) if len(fm) else fm.colour
+            self._cones_cache = ConeMap(fm.xy_m, fm.covariance, colour, fm.size, fm.confidence,
+                                        fm.ids)
+        else:
+            self._cones_cache = self._live_map()
+        return self._cones_cache
+
+    def _make_state(self, now_s: float) -> MapState:
+        if self._slam_active():
+            lagged = self.slam.pose()
+            state = np.array([lagged.x_m, lagged.y_m, lagged.yaw_rad, lagged.vx_mps,
+                              lagged.vy_mps, lagged.yaw_rate_radps])
+            cov = lagged.covariance
+            t_lag = lagged.timestamp_s
+        else:
+            state = self.ukf.x
+            cov = self.ukf.P[:3, :3]
+            t_lag = self.ukf.t_s if self.ukf.t_s is not None else now_s
+        recent = self._recent_imu
+        while recent and recent[0].timestamp_s <= t_lag:
+            recent.popleft()
+        if recent and not self.ukf.calibrating:
+            pred, t = predict_forward(state, t_lag, recent, self.ukf.gyro_bias_radps,
+                                      self.ukf.accel_bias_mps2, self.config.car.imu_x_m)
+        else:
+            pred, t = np.asarray(state, np.float64), t_lag
+        pose = PoseEstimate(t, float(pred[0]), float(pred[1]), float(pred[2]), float(pred[3]),
+                            float(pred[4]), float(pred[5]), np.asarray(cov, np.float64).copy())
+        return MapState(t, pose, self._cones(), loop_closed=self.loop_closed,
+                        backend=self.backend, map_frozen=self.map_frozen)
