@@ -147,7 +147,9 @@ class LiveMain:
                 map_state = shared.map_state
                 if map_state is None:
                     continue
-                if not self.autonomous_started and self.controller.state == AsState.DRIVING:
+                remote = shared.remote
+                go = remote is not None and remote.go
+                if not self.autonomous_started and (map_state.loop_closed or go):
                     self.planner.start_autonomous(map_state)
                     self.autonomous_started = True
                 if not self.autonomous_started:

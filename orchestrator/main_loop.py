@@ -150,9 +150,7 @@ class Main:
         self.times.add("mapper", t3 - t2)
 
         self.planner.observe(self.map_state)
-        if (not self.autonomous_started and self.controller.state == AsState.DRIVING) or (
-            not self.autonomous_started and self.remote is not None and self.remote.go
-        ):
+        if not self.autonomous_started and self._ready_to_plan():
             self.planner.start_autonomous(self.map_state)
             self.autonomous_started = True
         if self.autonomous_started and now_s + 1e-9 >= self._next_plan_s:
@@ -185,6 +183,13 @@ class Main:
         self.times.add("tick", time.perf_counter() - t0)
         self.ticks += 1
         return self.command
+
+    def _ready_to_plan(self) -> bool:
+        """The baseframe is built once the loop is closed (the map is fixed), or at the RES
+        "go" when there was no loop closure (the planner then uses what it has)."""
+        assert self.map_state is not None
+        go = self.remote is not None and self.remote.go
+        return bool(self.map_state.loop_closed or go or self.controller.state == AsState.DRIVING)
 
     def _fresh(self, readings: Sequence[Reading], now_s: float) -> list[Reading]:
         """Readings not older than ``run.stale_input_s``; the rest are counted and dropped."""

@@ -101,7 +101,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     recorder = None
     outputs: list[Any] = [hasher]
     if config.run.record:
-        recorder = Recorder(out_dir / "recording.mcap", config.recording)
+        recorder = Recorder(out_dir / "recording.mcap", config.recording, config.car, blocking=True)
         outputs.append(recorder)
         recorder.write(TRUTH_TRACK, track, 0.0)
     visualiser = None
