@@ -5,10 +5,10 @@ rear-axle centre), aligned with the vehicle frame, on flat ground. It measures, 
 frame (x forward, y left, z up):
 
 - specific force: the acceleration of its mounting point plus gravity's reaction,
-  ``a_x = dvx/dt - r vy - r^2 d``, ``a_y = dvy/dt + r vx + dr/dt d``, ``a_z = +9.81``
-  (``vx``, ``vy``, ``r`` from the ground truth, ``d`` = imu_x_m; time derivatives by backward
-  differences between successive polls, so they are exact for the simulated motion up to one
-  physics step of lag);
+  ``a_z = +9.81``; in the plane, ``vehicle.accel_at(imu_x_m, 0)`` when the vehicle model
+  provides it (simulator.vehicle.Vehicle does), else from the ground truth
+  ``a_x = dvx/dt - r vy - r^2 d``, ``a_y = dvy/dt + r vx + dr/dt d`` (``d`` = imu_x_m, time
+  derivatives by backward differences between successive polls);
 - angular rate ``(0, 0, r)``;
 
 each plus a bias (a constant drawn per run, ``config.sim.imu.*_bias_sigma_*``, plus a random
@@ -78,14 +78,21 @@ class ImuModel:
 
     # -- public ---------------------------------------------------------------------------
 
-    def true_sample(self, t_s: float, truth: GroundTruth) -> ImuSample:
-        """The noise-free reading at ``t_s`` (uses the derivatives of the latest poll)."""
-        dvx, dvy, dr = self._deriv
+    def true_sample(self, t_s: float, truth: GroundTruth, vehicle: Any = None) -> ImuSample:
+        """The noise-free reading at ``t_s``: from ``vehicle.accel_at`` when given, else from
+        the derivatives of ``truth`` between the latest polls."""
         r, d = truth.yaw_rate_radps, self.imu_x_m
+        accel_at = getattr(vehicle, "accel_at", None) if vehicle is not None else None
+        if callable(accel_at):
+            ax, ay = (float(v) for v in accel_at(d, 0.0))
+        else:
+            dvx, dvy, dr = self._deriv
+            ax = dvx - r * truth.vy_mps - r * r * d
+            ay = dvy + r * truth.vx_mps + dr * d
         return ImuSample(
             timestamp_s=t_s,
-            accel_x_mps2=dvx - r * truth.vy_mps - r * r * d,
-            accel_y_mps2=dvy + r * truth.vx_mps + dr * d,
+            accel_x_mps2=ax,
+            accel_y_mps2=ay,
             accel_z_mps2=GRAVITY_MPS2,
             gyro_x_radps=0.0,
             gyro_y_radps=0.0,
@@ -102,7 +109,7 @@ class ImuModel:
         while self._next_k * self.period_s <= t_s + 1e-9:
             sample_t = self._next_k * self.period_s
             self._next_k += 1
-            sample = self._measure(sample_t, truth)
+            sample = self._measure(sample_t, truth, vehicle)
             if self.dropout or (self.dropout_prob > 0 and self.rng.random() < self.dropout_prob):
                 continue
             packet = encode_imu_packet(sample, sample_t + self.settings.startup_offset_s)
@@ -126,8 +133,8 @@ class ImuModel:
         if prev is None or now[0] != prev[0]:
             self._prev = now
 
-    def _measure(self, t_s: float, truth: GroundTruth) -> ImuSample:
-        true = self.true_sample(t_s, truth)
+    def _measure(self, t_s: float, truth: GroundTruth, vehicle: Any) -> ImuSample:
+        true = self.true_sample(t_s, truth, vehicle)
         if self.inject_nan:
             nan = math.nan
             return ImuSample(t_s, nan, nan, nan, nan, nan, nan)

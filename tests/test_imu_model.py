@@ -143,3 +143,27 @@ def test_same_seed_same_bytes() -> None:
         model = ImuModel(AppConfig(), np.random.default_rng(9))
         runs.append([r.payload for t in _circle(100) for r in model.poll(t.timestamp_s, t)])
     assert runs[0] == runs[1]
+
+
+def test_uses_the_vehicle_model_acceleration_when_given() -> None:
+    vehicle_mod = pytest.importorskip("simulator.vehicle")
+    from common.messages import ActuatorCommand
+
+    config = AppConfig()
+    vehicle = vehicle_mod.Vehicle(config.car)
+    model = ImuModel(config, np.random.default_rng(0))
+    model.noise = False
+    parser = ImuParser()
+    command = ActuatorCommand(0.0, 0.4, 0.0, 0.15)
+    for k in range(1, 401):
+        vehicle.step(command, DT)
+        truth = vehicle.truth(k * DT)
+        expected = vehicle.accel_at(config.car.imu_x_m, 0.0)
+        for raw in model.poll(k * DT, truth, vehicle):
+            for sample in parser.feed(raw.timestamp_s, raw.payload):
+                if sample.timestamp_s < k * DT - 1e-9:
+                    continue  # the packet due at t = 0, before the first step
+                assert sample.accel_x_mps2 == pytest.approx(expected[0], abs=1e-4)
+                assert sample.accel_y_mps2 == pytest.approx(expected[1], abs=1e-4)
+                assert sample.gyro_z_radps == pytest.approx(truth.yaw_rate_radps, abs=1e-5)
+    assert abs(vehicle.truth().yaw_rate_radps) > 0.1  # the car did turn
