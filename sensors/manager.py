@@ -16,6 +16,7 @@ Either way :meth:`SensorManager.take` returns a :class:`SensorBatch` and
 from __future__ import annotations
 
 import collections
+import itertools
 import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -49,8 +50,9 @@ class SensorBatch:
     latest: dict[str, Reading] = field(default_factory=dict)
 
 
-def _time_key(item: Any) -> float:
-    return float(item.timestamp_s)
+def _time_key(item: tuple[int, Any]) -> tuple[float, int]:
+    """Time order; ties in arrival order (the sort is stable within one raw unit)."""
+    return float(item[1].timestamp_s), item[0]
 
 
 def make_parser(source: str, config: AppConfig) -> Parser | FrameDecoder:
@@ -88,9 +90,11 @@ class SensorManager:
             s for s in SOURCES if getattr(sc, s).enabled)
         overrides = dict(parsers or {})
         self.intakes: dict[str, Intake] = {}
+        sequence = itertools.count()  # arrival order across sources (ties in time)
         for source in self.enabled:
             parser = overrides.get(source) or make_parser(source, config)
-            self.intakes[source] = Intake(source, parser, sc.queue_length, sc.rate_window_s)
+            self.intakes[source] = Intake(source, parser, sc.queue_length, sc.rate_window_s,
+                                          sequence)
         self.receivers: dict[str, Receiver] = {}
         self.rejects: collections.Counter[str] = collections.Counter()
         self._command_codec = CanCodec(sc.can.dbc or None)
@@ -187,17 +191,16 @@ class SensorManager:
 
     def take(self) -> SensorBatch:
         """Everything since the last call, in time order, and the latest reading of each kind."""
-        raw: list[RawUnit] = []
-        readings: list[Reading] = []
+        raw: list[tuple[int, RawUnit]] = []
+        readings: list[tuple[int, Reading]] = []
         for intake in self.intakes.values():
-            r, p = intake.take()
+            r, p = intake.take_tagged()
             raw.extend(r)
             readings.extend(p)
             self._latest.update(intake.latest_copy())
-        if len(self.intakes) > 1:
-            raw.sort(key=_time_key)
-            readings.sort(key=_time_key)
-        return SensorBatch(raw, readings, dict(self._latest))
+        raw.sort(key=_time_key)
+        readings.sort(key=_time_key)
+        return SensorBatch([u for _, u in raw], [r for _, r in readings], dict(self._latest))
 
     def health(self, now_s: float) -> Health:
         """Freshness of each enabled source at ``now_s`` (the run's clock).

@@ -21,10 +21,11 @@ from __future__ import annotations
 
 import abc
 import collections
+import itertools
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -171,18 +172,22 @@ class Intake:
     ``parser`` is either a stream :class:`Parser` (``feed(timestamp_s, payload)``, for
     ``RawBytes``) or a :class:`FrameDecoder` (``decode(frame)``, for ``CanFrame``).
     ``queue_length`` bounds the recent deque and the pending (untaken) lists; what does not fit
-    is dropped and counted in ``rejects["dropped"]``.
+    is dropped and counted in ``rejects["dropped"]``. ``sequence`` (shared by the intakes of
+    one manager) numbers the raw units in arrival order, so units of several sources with equal
+    timestamps can be merged in the order they arrived (:meth:`take_tagged`).
     """
 
     def __init__(self, source: str, parser: Parser | FrameDecoder, queue_length: int = 4096,
-                 rate_window_s: float = 2.0) -> None:
+                 rate_window_s: float = 2.0,
+                 sequence: Iterator[int] | None = None) -> None:
         self.source = source
         self.parser = parser
         self.queue_length = max(1, int(queue_length))
         self.rate_window_s = float(rate_window_s)
         self._lock = threading.Lock()
-        self._pending_raw: collections.deque[RawUnit] = collections.deque()
-        self._pending: collections.deque[Reading] = collections.deque()
+        self._sequence = sequence if sequence is not None else itertools.count()
+        self._pending_raw: collections.deque[tuple[int, RawUnit]] = collections.deque()
+        self._pending: collections.deque[tuple[int, Reading]] = collections.deque()
         self.recent: collections.deque[Reading] = collections.deque(maxlen=self.queue_length)
         self.latest: dict[str, Reading] = {}
         self.rejects: collections.Counter[str] = collections.Counter()
@@ -240,12 +245,13 @@ class Intake:
                       exc_info=True)
             readings = []
         t_s = raw.timestamp_s
+        seq = next(self._sequence)
         with self._lock:
             self.raw_count += 1
             if len(self._pending_raw) >= self.queue_length:
                 self._pending_raw.popleft()
                 self.rejects["dropped_raw"] += 1
-            self._pending_raw.append(raw)
+            self._pending_raw.append((seq, raw))
             for reading in readings:
                 key = reading_key(reading)
                 self.latest[key] = reading
@@ -253,7 +259,7 @@ class Intake:
                 if len(self._pending) >= self.queue_length:
                     self._pending.popleft()
                     self.rejects["dropped"] += 1
-                self._pending.append(reading)
+                self._pending.append((seq, reading))
                 kind = self._kinds.get(key)
                 if kind is None:
                     kind = self._kinds[key] = _KindStats(self.queue_length)
@@ -272,14 +278,20 @@ class Intake:
 
     # -- taking ---------------------------------------------------------------------------
 
-    def take(self) -> tuple[list[RawUnit], list[Reading]]:
-        """Raw units and readings since the last call (in arrival order)."""
+    def take_tagged(self) -> tuple[list[tuple[int, RawUnit]], list[tuple[int, Reading]]]:
+        """Raw units and readings since the last call, each with the sequence number of its
+        raw unit (in arrival order)."""
         with self._lock:
             raw = list(self._pending_raw)
             readings = list(self._pending)
             self._pending_raw.clear()
             self._pending.clear()
         return raw, readings
+
+    def take(self) -> tuple[list[RawUnit], list[Reading]]:
+        """Raw units and readings since the last call (in arrival order)."""
+        raw, readings = self.take_tagged()
+        return [u for _, u in raw], [r for _, r in readings]
 
     def latest_copy(self) -> dict[str, Reading]:
         """The latest reading of each kind (key from :func:`reading_key`)."""
