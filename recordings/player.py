@@ -16,14 +16,14 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from common.clock import Clock, RealClock
 from common.errors import RecordingError
 from recordings import topics as topic_names
 from recordings.codec import PROTO_CLASSES, from_proto
-from recordings.reader import RecordingReader
+from recordings.reader import RecordedMessage, RecordingReader
 
 log = logging.getLogger(__name__)
 
@@ -67,27 +67,52 @@ class Player:
                     t for t in reader.topics if t not in topic_names.FOXGLOVE_TOPICS
                 )
             pacer = _Pacer(self.rate, self._clock) if self.rate is not None else None
+            decoders: dict[int, tuple[str, Callable[[bytes], object]]] = {}
             try:
-                for recorded in reader.iter_messages(wanted):
+                for log_time_ns, _, _, channel_id, data in reader.iter_entries(wanted):
+                    log_time_s = log_time_ns * 1e-9
                     try:
-                        proto = reader.decode(recorded)
-                        message = (
-                            from_proto(proto)
-                            if recorded.schema_name in PROTO_CLASSES
-                            else proto
-                        )
+                        known = decoders.get(channel_id)
+                        if known is None:
+                            known = decoders[channel_id] = _decoder(reader, channel_id)
+                        topic, decode = known
+                        message = decode(data)
                     except RecordingError as exc:
                         self.decode_errors += 1
                         if self.decode_errors <= 10:
                             log.warning("%s: skipping a message at %.6f s: %s", self.path,
-                                        recorded.log_time_s, exc)
+                                        log_time_s, exc)
                         continue
                     if pacer is not None:
-                        pacer.wait(recorded.log_time_s)
+                        pacer.wait(log_time_s)
                     self.played += 1
-                    yield recorded.log_time_s, recorded.topic, message
+                    yield log_time_s, topic, message
             finally:
                 self.recovered = reader.recovered
+
+
+def _decoder(reader: RecordingReader, channel_id: int) -> tuple[str, Callable[[bytes], object]]:
+    """(topic, bytes -> message) for a channel: protobuf, then :func:`from_proto` for ``fsd``."""
+    channel = reader.channels[channel_id]
+    schema = reader.schemas.get(channel.schema_id)
+    name = schema.name if schema is not None else ""
+    cls = PROTO_CLASSES.get(name)
+    if cls is not None:
+        from_string = cls.FromString
+
+        def decode(data: bytes) -> object:
+            try:
+                proto = from_string(data)
+            except Exception as exc:  # noqa: BLE001 (DecodeError)
+                raise RecordingError(f"cannot decode a {name} on {channel.topic}: {exc}") from exc
+            return from_proto(proto)
+
+        return channel.topic, decode
+
+    def decode_other(data: bytes) -> object:
+        return reader.decode(RecordedMessage(0, channel.topic, name, data, channel_id))
+
+    return channel.topic, decode_other
 
 
 class _Pacer:

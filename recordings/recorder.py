@@ -1,7 +1,8 @@
 """The recorder: a listener writing the stack's messages to an MCAP file of protobuf messages.
 
 The caller's side (:meth:`Recorder.write`, :meth:`Recorder.write_raw`, ...) only puts a reference
-to the (immutable) message on a bounded queue and returns: it never blocks and never converts.
+to the (immutable) message on a bounded queue and returns: it never blocks and never converts
+(unless made with ``blocking=True``, for simulation, where it waits for room instead of dropping).
 One writer thread converts with :mod:`recordings.codec`, serialises, and writes through ``mcap``'s
 ``Writer`` with each protobuf schema registered once (``mcap_protobuf``'s ``register_schema``).
 When the queue is full the message is dropped, counted in :attr:`Recorder.dropped` and logged.
@@ -68,6 +69,9 @@ class Recorder:
     scene; ``metadata`` is written once as an MCAP metadata record named ``"fsd"`` (e.g. the
     track, the seed, the configuration as TOML).
 
+    ``blocking=False`` (on the car) never blocks the caller and drops what does not fit in the
+    queue; ``blocking=True`` (simulation) waits for room instead, so nothing is lost.
+
     Thread-safe: any thread may call the ``write*`` methods. After :meth:`close` they are ignored
     (counted in :attr:`dropped`).
     """
@@ -78,8 +82,12 @@ class Recorder:
         config: RecordingConfig | None = None,
         car: CarConfig | None = None,
         metadata: Mapping[str, str] | None = None,
+        blocking: bool = False,
     ) -> None:
         self.path = Path(path)
+        self.blocking = blocking
+        """Wait for room in the queue instead of dropping (simulation, replay: completeness
+        matters more than latency there, and a dropped message would break the replay)."""
         self.config = config if config is not None else RecordingConfig()
         self._car = car if car is not None else CarConfig()
         self.dropped = 0
@@ -158,8 +166,16 @@ class Recorder:
     def _put(self, item: _Item) -> bool:
         if not self._closed:
             try:
-                self._queue.put_nowait(item)
-                return True
+                if not self.blocking:
+                    self._queue.put_nowait(item)
+                    return True
+                while True:
+                    try:
+                        self._queue.put(item, timeout=0.5)
+                        return True
+                    except queue.Full:
+                        if not self._thread.is_alive():
+                            raise
             except queue.Full:
                 pass
         with self._lock:
