@@ -74,7 +74,12 @@ class CanReceiver(Receiver):
         bus = self._bus
         if bus is None:
             raise SensorError("bus is not open")
-        msg = bus.recv(timeout_s)
+        try:
+            msg = bus.recv(timeout_s)
+        except (ValueError, IndexError) as exc:
+            # a garbled line from a serial adapter (slcan): that frame is lost, the bus is fine
+            self.intake.count_error("garbled", "garbled frame from %s: %r", self.describe(), exc)
+            return []
         if msg is None:
             return []
         if msg.is_error_frame:

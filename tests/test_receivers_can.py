@@ -93,10 +93,12 @@ def test_slcan_frames_decode_unknown_ids_are_counted_and_commands_go_out() -> No
             stats = receiver.stats(clock.now_s())
             assert stats.rejects == {"bad_length": 1, "unknown_id": 1}
             # garbage on the line itself: slcan lines that are not frames
-            os.write(master, b"zzz\r\a\r")
+            os.write(master, b"zzz\r\a\rt1G08\rt10\r")
             os.write(master, slcan_line(frames[0]))
             assert wait_for(lambda: receiver.intake.raw_count >= 5)
             assert receiver.is_alive()
+            assert receiver.reconnects == 0  # a garbled line is not a lost bus
+            assert receiver.stats(clock.now_s()).errors == 2
             # the actuator command goes out as an slcan frame the 'VCU' decodes
             os.read(master, 4096)  # drop the adapter set-up commands (C, S6, O)
             cmd = ActuatorCommand(1.0, 0.0, 0.4, -0.25, AsState.DRIVING)
