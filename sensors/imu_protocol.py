@@ -77,6 +77,9 @@ CLOCK_DRIFT_ALLOWANCE = 1e-4
 
 _F32x3 = struct.Struct("<3f")
 _U64 = struct.Struct("<Q")
+_CRC = struct.Struct(">H")
+_DEFAULT_BODY = struct.Struct("<BHQ3f3f")
+"""Groups, field mask, TimeStartup, AngularRate, Accel: the default packet after the sync."""
 
 
 def crc16(data: bytes) -> int:
@@ -92,12 +95,11 @@ def encode_imu_packet(sample: ImuSample, sensor_time_s: float | None = None) -> 
     """
     t = sample.timestamp_s if sensor_time_s is None else sensor_time_s
     t_ns = int(round(t * 1e9)) if math.isfinite(t) and t > 0 else 0
-    body = bytearray((GROUP_COMMON,))
-    body += struct.pack("<H", DEFAULT_FIELDS)
-    body += _U64.pack(min(t_ns, 2**64 - 1))
-    body += _F32x3.pack(sample.gyro_x_radps, -sample.gyro_y_radps, -sample.gyro_z_radps)
-    body += _F32x3.pack(sample.accel_x_mps2, -sample.accel_y_mps2, -sample.accel_z_mps2)
-    return bytes((SYNC,)) + bytes(body) + struct.pack(">H", crc16(bytes(body)))
+    body = _DEFAULT_BODY.pack(
+        GROUP_COMMON, DEFAULT_FIELDS, min(t_ns, 2**64 - 1),
+        sample.gyro_x_radps, -sample.gyro_y_radps, -sample.gyro_z_radps,
+        sample.accel_x_mps2, -sample.accel_y_mps2, -sample.accel_z_mps2)
+    return b"\xfa" + body + _CRC.pack(crc16(body))
 
 
 def _packet_length(buf: bytearray | bytes) -> int | str:

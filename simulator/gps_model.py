@@ -34,12 +34,7 @@ from typing import Any
 import numpy as np
 
 from common.config import AppConfig
-from common.conventions import (
-    LocalTangentFrame,
-    WorldFrame,
-    enu_yaw_to_compass_deg,
-    vehicle_to_world,
-)
+from common.conventions import LocalTangentFrame, WorldFrame, enu_yaw_to_compass_deg
 from common.messages import GroundTruth, RawBytes
 from sensors.nmea import KNOT_MPS, with_checksum
 
@@ -77,6 +72,7 @@ class GpsModel:
             start_yaw_enu_rad=sim.start_heading_enu_rad,
         )
         self.origin_alt_m = sim.origin_alt_m
+        self._geodetic = _EnuToGeodetic(sim.origin_lat_deg, sim.origin_lon_deg, sim.origin_alt_m)
         self.period_s = 1.0 / self.cfg.rate_hz if self.cfg.rate_hz > 0 else math.inf
         self.enabled = self.cfg.enabled and self.cfg.rate_hz > 0
         self.noise = True
@@ -114,20 +110,26 @@ class GpsModel:
     def epoch_sentences(self, t_s: float, truth: GroundTruth) -> list[bytes]:
         """GGA, RMC, VTG and GSA for an epoch at ``t_s`` with the car at ``truth``."""
         cfg, s = self.cfg, self.settings
-        pos = vehicle_to_world([s.antenna_x_m, 0.0], truth.x_m, truth.y_m, truth.yaw_rad)
-        east_north = self.frame.world_to_enu(pos)
+        c, sn = math.cos(truth.yaw_rad), math.sin(truth.yaw_rad)
+        wx = truth.x_m + s.antenna_x_m * c
+        wy = truth.y_m + s.antenna_x_m * sn
+        h = self.frame.start_yaw_enu_rad
+        east = wx * math.cos(h) - wy * math.sin(h) + self.frame.start_east_m
+        north = wx * math.sin(h) + wy * math.cos(h) + self.frame.start_north_m
         alt = self.origin_alt_m
         speed, course_yaw_world = self._true_velocity(truth)
         if self.noise:
-            east_north = east_north + self._bias_m + self.rng.normal(0.0, cfg.sigma_m, 2)
-            alt += float(self.rng.normal(0.0, cfg.altitude_sigma_m))
+            z = self.rng.standard_normal(5).tolist()
+            east += float(self._bias_m[0]) + cfg.sigma_m * z[0]
+            north += float(self._bias_m[1]) + cfg.sigma_m * z[1]
+            alt += cfg.altitude_sigma_m * z[2]
             if speed > 0.0:
                 sigma = cfg.course_sigma_rad * max(1.0, s.course_full_speed_mps / speed)
-                course_yaw_world += float(self.rng.normal(0.0, min(sigma, math.pi)))
-            speed = abs(speed + float(self.rng.normal(0.0, cfg.speed_sigma_mps)))
-        lat, lon, _ = self.frame.enu.to_geodetic(east_north[0], east_north[1], 0.0)
+                course_yaw_world += min(sigma, math.pi) * z[3]
+            speed = abs(speed + cfg.speed_sigma_mps * z[4])
+        lat, lon = self._geodetic.to_geodetic(east, north)
         course_deg = enu_yaw_to_compass_deg(self.frame.world_yaw_to_enu_yaw(course_yaw_world))
-        return self.format_epoch(t_s, float(lat), float(lon), alt, speed, course_deg)
+        return self.format_epoch(t_s, lat, lon, alt, speed, course_deg)
 
     def format_epoch(self, t_s: float, lat_deg: float, lon_deg: float, alt_m: float,
                      speed_mps: float, course_deg: float) -> list[bytes]:
@@ -196,3 +198,43 @@ def _format_coord(value_deg: float, degree_digits: int, pos: str, neg: str) -> t
     if minutes >= 59.99999995:  # rounding carried into the next degree
         degrees, minutes = degrees + 1, 0.0
     return f"{degrees:0{degree_digits}d}{minutes:010.7f}", (pos if value_deg >= 0 else neg)
+
+
+_WGS84_A_M = 6378137.0
+_WGS84_F = 1.0 / 298.257223563
+_WGS84_E2 = _WGS84_F * (2.0 - _WGS84_F)
+
+
+class _EnuToGeodetic:
+    """East, north (m, at the origin's height) to WGS84 latitude, longitude (deg).
+
+    The same transformation as pymap3d.enu2geodetic (ENU -> ECEF -> geodetic, WGS84), written
+    with ``math`` for speed (a GPS epoch every 0.1 s of a simulation running many times faster
+    than real time); agrees with pymap3d to well below a millimetre.
+    """
+
+    def __init__(self, lat0_deg: float, lon0_deg: float, alt0_m: float) -> None:
+        lat0, lon0 = math.radians(lat0_deg), math.radians(lon0_deg)
+        self.sin_lat0, self.cos_lat0 = math.sin(lat0), math.cos(lat0)
+        self.sin_lon0, self.cos_lon0 = math.sin(lon0), math.cos(lon0)
+        n0 = _WGS84_A_M / math.sqrt(1.0 - _WGS84_E2 * self.sin_lat0 ** 2)
+        self.x0 = (n0 + alt0_m) * self.cos_lat0 * self.cos_lon0
+        self.y0 = (n0 + alt0_m) * self.cos_lat0 * self.sin_lon0
+        self.z0 = (n0 * (1.0 - _WGS84_E2) + alt0_m) * self.sin_lat0
+
+    def to_geodetic(self, east_m: float, north_m: float, up_m: float = 0.0) -> tuple[float, float]:
+        """Latitude and longitude (deg) of a point east/north/up of the origin (m)."""
+        sl, cl, so, co = self.sin_lat0, self.cos_lat0, self.sin_lon0, self.cos_lon0
+        t = cl * up_m - sl * north_m
+        x = self.x0 + co * t - so * east_m
+        y = self.y0 + so * t + co * east_m
+        z = self.z0 + sl * up_m + cl * north_m
+        lon = math.atan2(y, x)
+        p = math.hypot(x, y)
+        lat = math.atan2(z, p * (1.0 - _WGS84_E2))
+        for _ in range(5):
+            sin_lat = math.sin(lat)
+            n = _WGS84_A_M / math.sqrt(1.0 - _WGS84_E2 * sin_lat * sin_lat)
+            h = p / math.cos(lat) - n
+            lat = math.atan2(z, p * (1.0 - _WGS84_E2 * n / (n + h)))
+        return math.degrees(lat), math.degrees(lon)

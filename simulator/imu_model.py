@@ -35,6 +35,7 @@ from common.messages import GroundTruth, ImuSample, RawBytes
 from sensors.imu_protocol import encode_imu_packet
 
 GRAVITY_MPS2 = 9.81
+_NORMAL_BLOCK = 256
 
 
 @dataclass(frozen=True, slots=True)
@@ -70,8 +71,12 @@ class ImuModel:
         """Fault switch: while True nothing is sent."""
         self.dropout_prob = self.cfg.dropout_prob
         self.corrupt_fraction = self.cfg.corrupt_prob
-        self._accel_bias = rng.normal(0.0, 1.0, 3) * self.cfg.accel_bias_sigma_mps2
-        self._gyro_bias = rng.normal(0.0, 1.0, 3) * self.cfg.gyro_bias_sigma_radps
+        self._accel_bias: list[float] = (
+            rng.normal(0.0, 1.0, 3) * self.cfg.accel_bias_sigma_mps2).tolist()
+        self._gyro_bias: list[float] = (
+            rng.normal(0.0, 1.0, 3) * self.cfg.gyro_bias_sigma_radps).tolist()
+        self._normals: list[list[float]] = []
+        self._normals_i = 0
         self._next_k = 0
         self._prev: tuple[float, float, float, float] | None = None
         self._deriv = (0.0, 0.0, 0.0)
@@ -141,15 +146,32 @@ class ImuModel:
         if not self.noise:
             return true
         cfg, s = self.cfg, self.settings
+        z = self._standard_normals()
         root_dt = math.sqrt(self.period_s)
-        self._accel_bias = self._accel_bias + self.rng.normal(0.0, s.accel_bias_walk * root_dt, 3)
-        self._gyro_bias = self._gyro_bias + self.rng.normal(0.0, s.gyro_bias_walk * root_dt, 3)
-        accel = (np.array([true.accel_x_mps2, true.accel_y_mps2, true.accel_z_mps2])
-                 + self._accel_bias + self.rng.normal(0.0, cfg.accel_sigma_mps2, 3))
-        gyro = (np.array([true.gyro_x_radps, true.gyro_y_radps, true.gyro_z_radps])
-                + self._gyro_bias + self.rng.normal(0.0, cfg.gyro_sigma_radps, 3))
-        return ImuSample(t_s, float(accel[0]), float(accel[1]), float(accel[2]),
-                         float(gyro[0]), float(gyro[1]), float(gyro[2]))
+        walk_a, walk_g = s.accel_bias_walk * root_dt, s.gyro_bias_walk * root_dt
+        ab, gb = self._accel_bias, self._gyro_bias
+        for i in range(3):
+            ab[i] += walk_a * z[i]
+            gb[i] += walk_g * z[3 + i]
+        sa, sg = cfg.accel_sigma_mps2, cfg.gyro_sigma_radps
+        return ImuSample(
+            t_s,
+            true.accel_x_mps2 + ab[0] + sa * z[6],
+            true.accel_y_mps2 + ab[1] + sa * z[7],
+            true.accel_z_mps2 + ab[2] + sa * z[8],
+            true.gyro_x_radps + gb[0] + sg * z[9],
+            true.gyro_y_radps + gb[1] + sg * z[10],
+            true.gyro_z_radps + gb[2] + sg * z[11],
+        )
+
+    def _standard_normals(self) -> list[float]:
+        """Twelve N(0, 1) draws for one sample (drawn from ``rng`` in blocks, for speed)."""
+        if self._normals_i >= len(self._normals):
+            self._normals = self.rng.standard_normal((_NORMAL_BLOCK, 12)).tolist()
+            self._normals_i = 0
+        row: list[float] = self._normals[self._normals_i]
+        self._normals_i += 1
+        return row
 
     def _corrupt(self, packet: bytes) -> bytes:
         data = bytearray(packet)
