@@ -19,6 +19,7 @@ Log times are nanoseconds on the run's clock: ``round(log_time_s * 1e9)``.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import queue
 import threading
@@ -52,6 +53,13 @@ _NO_AUTO_CHUNK = 1 << 62
 def to_ns(t_s: float) -> int:
     """Log time in integer nanoseconds for ``t_s`` seconds (``round(t_s * 1e9)``)."""
     return round(t_s * 1e9)
+
+
+def _checked_ns(t_s: float) -> int:
+    """:func:`to_ns`, refusing what MCAP cannot store (NaN, infinities, negative times)."""
+    if not math.isfinite(t_s) or t_s < 0.0 or t_s >= 1.8e10:
+        raise RecordingError(f"log time {t_s!r} s cannot be recorded (must be in 0 .. 1.8e10 s)")
+    return to_ns(t_s)
 
 
 @dataclass(frozen=True, slots=True)
@@ -270,7 +278,7 @@ class Recorder:
         if item.kind == "meta":
             self._writer.add_metadata(item.topic, item.payload)
             return
-        log_ns = to_ns(item.log_time_s)
+        log_ns = _checked_ns(item.log_time_s)
         if item.kind == "gps":
             self._write_proto(item.topic, foxglove_views.location_fix(item.payload), log_ns)
         elif item.kind == "proto":

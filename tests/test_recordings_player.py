@@ -139,3 +139,13 @@ def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
     assert recorder.write("/steer", SteeringAngle(200.0, 0.0), 200.0) is False
     assert recorder.dropped == 95
     assert [t for t, _, _ in Player(path)] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+
+
+def test_blocking_recorder_loses_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "blocking.mcap"
+    with Recorder(path, RecordingConfig(queue_length=2), blocking=True) as recorder:
+        for i in range(3000):
+            recorder.write_raw(CanFrame(i * 0.001, 0x20, i.to_bytes(2, "little")))
+    assert recorder.dropped == 0
+    frames = [m for _, _, m in Player(path)]
+    assert frames == [CanFrame(i * 0.001, 0x20, i.to_bytes(2, "little")) for i in range(3000)]

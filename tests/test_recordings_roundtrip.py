@@ -295,7 +295,9 @@ def test_a_topic_keeps_its_type(tmp_path: Path) -> None:
         recorder.write("/x", RemoteStop(0.1, False, True), 0.1)  # refused, counted
         recorder.write("/x", SteeringAngle(0.2, 0.2), 0.2)
         recorder.write("/y", object(), 0.3)  # no schema: refused, counted
-    assert recorder.errors == 2
+        recorder.write("/x", SteeringAngle(0.4, 0.4), math.nan)  # no log time: refused
+        recorder.write("/x", SteeringAngle(-1.0, 0.4), -1.0)  # MCAP times are unsigned
+    assert recorder.errors == 4
     assert [m for _, _, m in Player(path)] == [SteeringAngle(0.0, 0.1), SteeringAngle(0.2, 0.2)]
 
 
