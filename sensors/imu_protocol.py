@@ -110,10 +110,17 @@ def _packet_length(buf: bytearray | bytes) -> int | str:
     if buf[1] != GROUP_COMMON:
         return "unsupported"
     fields = buf[2] | (buf[3] << 8)
-    if fields == 0 or fields >> len(GROUP1_FIELD_SIZES):
-        return "unsupported"
-    size = sum(s for bit, s in enumerate(GROUP1_FIELD_SIZES) if fields >> bit & 1)
-    return 4 + size + 2
+    length = _LENGTHS.get(fields)
+    if length is None:
+        if fields == 0 or fields >> len(GROUP1_FIELD_SIZES):
+            return "unsupported"
+        size = sum(s for bit, s in enumerate(GROUP1_FIELD_SIZES) if fields >> bit & 1)
+        length = _LENGTHS[fields] = 4 + size + 2
+    return length
+
+
+_LENGTHS: dict[int, int] = {}
+"""Packet length by group-1 field mask (filled as masks are seen)."""
 
 
 class ImuParser:
@@ -238,7 +245,11 @@ class ImuParser:
         pos = 4
         sensor_s: float | None = None
         gyro = accel = (0.0, 0.0, 0.0)
-        for bit, size in enumerate(GROUP1_FIELD_SIZES):
+        if fields == DEFAULT_FIELDS:  # fast path: the packet our unit is configured to send
+            _, _, t_ns, gx, gy, gz, ax, ay, az = _DEFAULT_BODY.unpack_from(packet, 1)
+            sensor_s, gyro, accel = t_ns * 1e-9, (gx, gy, gz), (ax, ay, az)
+            fields = 0
+        for bit, size in enumerate(GROUP1_FIELD_SIZES if fields else ()):
             if not fields >> bit & 1:
                 continue
             if bit == 0:
@@ -249,7 +260,7 @@ class ImuParser:
                 accel = _F32x3.unpack_from(packet, pos)
             pos += size
         values = gyro + accel
-        if not all(math.isfinite(v) for v in values):
+        if not math.isfinite(sum(values)):  # NaN or inf anywhere (float32 sums cannot overflow)
             self.rejects["nan"] += 1
             log.debug("IMU packet with non-finite values rejected: %r", values)
             return None

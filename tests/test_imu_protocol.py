@@ -155,3 +155,10 @@ def test_fuzz_packets_with_inserted_garbage(garbage: bytes, where: int) -> None:
     got += parser.flush()
     # Whatever the garbage did, the clean packet after it still decodes.
     assert any(s.accel_z_mps2 == _f32(9.81) for s in got)
+
+
+def test_mixed_infinities_rejected_without_losing_the_stream() -> None:
+    parser = ImuParser()
+    bad = encode_imu_packet(ImuSample(0.0, math.inf, -math.inf, 9.81, 0.0, 0.0, 0.0))
+    got = parser.feed(0.0, bad + encode_imu_packet(SAMPLE))
+    assert len(got) == 1 and parser.rejects == {"nan": 1}
