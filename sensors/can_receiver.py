@@ -6,6 +6,11 @@ time or the adapter's counter). Error frames are counted as errors; a bus-off er
 failing ``recv`` closes the bus and reopens it with backoff. :meth:`CanReceiver.send` puts an
 actuator command frame on the bus (thread-safe; a failure is counted, logged and reported as
 False, never raised into the control loop).
+
+On the car (SocketCAN) reopening the socket does not restart a bus-off controller: give the
+kernel an automatic restart, ``ip link set can0 type can bitrate 500000 restart-ms 100``.
+A garbled line from a serial adapter (slcan) loses that frame only: it is counted, the bus
+stays open.
 """
 
 from __future__ import annotations
