@@ -22,6 +22,8 @@ class SafetyConfig:
     """When the safety supervisor stops the car."""
 
     plan_timeout_s: float = 0.2
+    no_path_timeout_s: float = 1.5
+    """A plan with no feasible manoeuvre (the planner brakes) for this long ends the run."""
     critical_sources: tuple[str, ...] = ("imu", "lidar")
     """Sources whose staleness is an emergency (full braking at once)."""
     max_position_sigma_m: float = 1.0

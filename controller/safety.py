@@ -69,6 +69,7 @@ class SafetySupervisor:
         self.stop_time_s = math.nan
         self.transitions: list[tuple[float, AsState, AsState, str]] = []
         self._ready_since_s = math.nan
+        self._no_path_since_s = math.nan
 
     # ------------------------------------------------------------------ state machine
     def transition(self, now_s: float, new: AsState, reason: str = "") -> bool:
@@ -186,6 +187,13 @@ class SafetySupervisor:
             return f"finished: {plan.lap} laps"
         if len(plan.manoeuvre) == 0:
             return "no manoeuvre"
+        if plan.chosen_index < 0:
+            if not math.isfinite(self._no_path_since_s):
+                self._no_path_since_s = now_s
+            elif now_s - self._no_path_since_s > c.no_path_timeout_s:
+                return "no feasible path"
+        else:
+            self._no_path_since_s = math.nan
         bf = plan.baseframe
         if bf is not None and len(bf.x_m):
             dist = float(np.sqrt(np.min((bf.x_m - pose.x_m) ** 2 + (bf.y_m - pose.y_m) ** 2)))

@@ -39,6 +39,8 @@ class Candidate:
     feasible: bool
     cost: float
     reason: str = ""
+    collision_free: bool = True
+    max_curvature_1pm: float = 0.0
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -122,10 +124,14 @@ class ManoeuvreGenerator:
             heading, kappa = _path_geometry(xy)
             cands.append(self._grade(off, s, d, xy, heading, kappa, in_h, tree, last_offset_m))
         feasible = [i for i, cand in enumerate(cands) if cand.feasible]
-        if not feasible:
-            return cands, -1
-        best = min(feasible, key=lambda i: cands[i].cost)
-        return cands, best
+        if feasible:
+            return cands, min(feasible, key=lambda i: cands[i].cost)
+        # none within the curvature limit: the least bent collision-free one (the car is slow
+        # there and steers at its limit), so a track at the car's limit does not stop it
+        clear = [i for i, cand in enumerate(cands) if cand.collision_free]
+        if clear:
+            return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
+        return cands, -1
 
     def _grade(
         self,
@@ -144,6 +150,7 @@ class ManoeuvreGenerator:
         k_abs = np.abs(kappa[1:-1]) if len(kappa) > 2 else np.abs(kappa)
         kmax = float(k_abs.max()) if len(k_abs) else 0.0
         feasible = True
+        collision_free = True
         if kmax > self.kappa_max_1pm:
             feasible, reason = False, f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
         clearance = math.inf
@@ -160,8 +167,8 @@ class ManoeuvreGenerator:
                 * np.clip(u / max(c.clearance_ramp_m, 1e-6), 0.0, 1.0)
             slack = gap - margin
             i = int(np.argmin(slack))
-            if slack[i] < 0.0 and feasible:
-                feasible = False
+            if slack[i] < 0.0:
+                feasible = collision_free = False
                 reason = f"clearance {gap[i]:.2f} m to a cone at {u[i]:.1f} m"
         step = float(np.mean(np.diff(s))) if len(s) > 1 else 1.0
         cost = c.weight_curvature * float(np.sum(kappa[in_h] ** 2) * step)
@@ -171,4 +178,5 @@ class ManoeuvreGenerator:
         if math.isfinite(clearance):
             short = max(0.0, c.preferred_clearance_m - clearance)
             cost += c.weight_clearance * short * short
-        return Candidate(off, s, d, xy, heading, kappa, clearance, feasible, cost, reason)
+        return Candidate(off, s, d, xy, heading, kappa, clearance, feasible, cost, reason,
+                         collision_free, kmax)

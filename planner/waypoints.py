@@ -192,22 +192,26 @@ def order_path(
     path = []
     start = pos.copy()
     for _ in range(len(pts)):
-        idx = tree.query_ball_point(pos, max_step_m)
-        best, best_cost = -1, math.inf
-        for j in idx:
-            if not free[j]:
-                continue
-            d = pts[j] - pos
-            dist = float(np.hypot(d[0], d[1]))
-            if dist < 1e-6:
-                free[j] = False
-                continue
-            turn = abs(math.remainder(math.atan2(d[1], d[0]) - yaw, 2.0 * math.pi))
-            if turn > max_turn_rad:
-                continue
-            cost = dist * (1.0 + 2.0 * turn)
-            if cost < best_cost:
-                best, best_cost = j, cost
+        best = -1
+        # a gap (e.g. the start line, marked by orange cones only): look further, straighter
+        for reach, turn_max in ((max_step_m, max_turn_rad), (2.0 * max_step_m, 0.4)):
+            best, best_cost = -1, math.inf
+            for j in tree.query_ball_point(pos, reach):
+                if not free[j]:
+                    continue
+                d = pts[j] - pos
+                dist = float(np.hypot(d[0], d[1]))
+                if dist < 1e-6:
+                    free[j] = False
+                    continue
+                turn = abs(math.remainder(math.atan2(d[1], d[0]) - yaw, 2.0 * math.pi))
+                if turn > turn_max:
+                    continue
+                cost = dist * (1.0 + 2.0 * turn)
+                if cost < best_cost:
+                    best, best_cost = j, cost
+            if best >= 0:
+                break
         if best < 0:
             break
         d = pts[best] - pos

@@ -1,0 +1,148 @@
+"""A small kinematic bicycle and a closed loop (planner + controller, perfect pose) for tests.
+
+Not a test module itself (no ``test_`` prefix); imported by tests/test_planner_closed_loop.py.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from common.config import AppConfig
+from common.messages import (
+    ActuatorCommand,
+    AsState,
+    ConeMap,
+    Health,
+    MapState,
+    Plan,
+    PoseEstimate,
+    RemoteStop,
+)
+from controller.controller import Controller
+from planner.path_planner import PathPlanner
+
+
+@dataclass
+class Bicycle:
+    """Kinematic bicycle about the rear axle with steering lag and rate limit, drag, and the
+    car's drive and brake limits. ``lateral_accel_max_mps2`` records the largest v^2 kappa."""
+
+    wheelbase_m: float
+    max_drive_mps2: float
+    max_brake_mps2: float
+    max_steer_rad: float
+    max_steer_rate_radps: float
+    steer_lag_s: float
+    x_m: float = 0.0
+    y_m: float = 0.0
+    yaw_rad: float = 0.0
+    v_mps: float = 0.0
+    steer_rad: float = 0.0
+    lateral_peak_mps2: float = 0.0
+    drag_per_v2: float = 0.0015
+    history: list[tuple[float, float]] = field(default_factory=list)
+
+    def step(self, cmd: ActuatorCommand, dt: float) -> None:
+        target = max(min(cmd.steering_rad, self.max_steer_rad), -self.max_steer_rad)
+        rate = (target - self.steer_rad) / max(self.steer_lag_s, dt)
+        rate = max(min(rate, self.max_steer_rate_radps), -self.max_steer_rate_radps)
+        self.steer_rad += rate * dt
+        accel = cmd.throttle * self.max_drive_mps2 - self.drag_per_v2 * self.v_mps**2
+        if self.v_mps > 0.0:
+            accel -= cmd.brake * self.max_brake_mps2
+        self.v_mps = max(self.v_mps + accel * dt, 0.0)
+        kappa = math.tan(self.steer_rad) / self.wheelbase_m
+        self.lateral_peak_mps2 = max(self.lateral_peak_mps2, self.v_mps**2 * abs(kappa))
+        self.yaw_rad = math.remainder(self.yaw_rad + self.v_mps * kappa * dt, 2.0 * math.pi)
+        self.x_m += self.v_mps * math.cos(self.yaw_rad) * dt
+        self.y_m += self.v_mps * math.sin(self.yaw_rad) * dt
+
+    def footprint(self, length_m: float, width_m: float, rear_m: float) -> np.ndarray:
+        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        local = np.array([[-rear_m, -width_m / 2], [length_m - rear_m, -width_m / 2],
+                          [length_m - rear_m, width_m / 2], [-rear_m, width_m / 2]])
+        return np.stack([self.x_m + local[:, 0] * c - local[:, 1] * s,
+                         self.y_m + local[:, 0] * s + local[:, 1] * c], axis=1)
+
+
+def bicycle_for(config: AppConfig) -> Bicycle:
+    car = config.car
+    return Bicycle(car.wheelbase_m, car.max_drive_accel_mps2, car.max_brake_decel_mps2,
+                   car.max_steer_rad, car.max_steer_rate_radps, car.steer_lag_s)
+
+
+def cone_map(xy: np.ndarray, colours: np.ndarray) -> ConeMap:
+    n = len(xy)
+    return ConeMap(xy_m=xy, covariance=np.tile(np.eye(2) * 0.01, (n, 1, 1)),
+                   colour=colours.astype(np.int64), size=np.ones(n, np.int64),
+                   confidence=np.ones(n), ids=np.arange(n))
+
+
+@dataclass
+class LoopResult:
+    lap_times_s: list[float]
+    cones_hit: set[int]
+    off_track: int
+    max_offset_m: float
+    final_state: AsState
+    stop_reason: str
+    lateral_peak_mps2: float
+    time_s: float
+
+
+def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 200.0,
+                    explore_waypoints: bool = False) -> LoopResult:
+    """Drive ``laps`` autonomous laps of a simulator Track with perfect pose and a known map."""
+    config.controller.laps = laps
+    config.controller.safety.auto_go = True
+    planner = PathPlanner(config)
+    controller = Controller(config)
+    car = bicycle_for(config)
+    cones = cone_map(track.cones_xy_m, track.colours)
+    dt = 1.0 / config.controller.rate_hz
+    plan_every = max(int(round(config.controller.rate_hz / config.planner.rate_hz)), 1)
+
+    def state(t: float) -> MapState:
+        pose = PoseEstimate(t, car.x_m, car.y_m, car.yaw_rad, car.v_mps, 0.0, 0.0,
+                            np.eye(3) * 1e-4)
+        return MapState(t, pose, cones, loop_closed=True)
+
+    if explore_waypoints:
+        for p in track.centreline_xy_m[:: 3]:
+            planner.book.record(float(p[0]), float(p[1]))
+    planner.start_autonomous(state(0.0))
+    health = Health(0.0, ())
+    remote = RemoteStop(0.0, False, False)
+    plan: Plan | None = None
+    hits: set[int] = set()
+    off = 0
+    max_offset = 0.0
+    lap_times: list[float] = []
+    last_lap, last_lap_t = 0, math.nan
+    t = 0.0
+    step = 0
+    while t < max_time_s:
+        if step % plan_every == 0:
+            plan = planner.plan(state(t), t)
+            if plan.lap != last_lap:
+                if math.isfinite(last_lap_t):
+                    lap_times.append(t - last_lap_t)
+                last_lap, last_lap_t = plan.lap, t
+            elif last_lap == 0 and not math.isfinite(last_lap_t):
+                last_lap_t = math.nan
+        cmd = controller.command(t, state(t).pose, plan, health, remote)
+        car.step(cmd, dt)
+        t += dt
+        step += 1
+        fp = car.footprint(config.car.length_m, config.car.width_m, config.car.rear_overhang_m)
+        hits.update(track.cones_touched(fp))
+        if step % 10 == 0:
+            if track.is_off_track(fp):
+                off += 1
+        if controller.state in (AsState.FINISHED, AsState.EMERGENCY) and car.v_mps < 0.01:
+            break
+    return LoopResult(lap_times, hits, off, max_offset, controller.state, controller.stop_reason,
+                      car.lateral_peak_mps2, t)
