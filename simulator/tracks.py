@@ -653,7 +653,7 @@ def _build_trackdrive(raw: _RawLayout) -> Track:
     # start line from the big orange cones (the cluster nearest the start)
     start_line = np.full((2, 2), np.nan)
     if len(big) >= 2:
-        clusters = _clusters(big, 4.0)
+        clusters = _clusters(big, 7.0)
         ref = start_xy
         gate = min(clusters, key=lambda c: float(np.hypot(*(c.mean(axis=0) - ref))))
         if len(gate) >= 2:
@@ -735,7 +735,7 @@ def _build_acceleration(raw: _RawLayout) -> Track:
     finish_line = np.full((2, 2), np.nan)
     big_pts = xy[raw.colours == ConeColour.BIG_ORANGE]
     if len(big_pts) >= 2:
-        gates = sorted(_clusters(big_pts, 3.0), key=lambda c: float((c.mean(axis=0) - mean)
+        gates = sorted(_clusters(big_pts, 7.0), key=lambda c: float((c.mean(axis=0) - mean)
                                                                      @ axis))
         start_line = _line_from_cluster(gates[0], heading)
         finish_line = _line_from_cluster(gates[-1], heading) if len(gates) > 1 else start_line
@@ -801,7 +801,7 @@ def _build_skidpad(raw: _RawLayout) -> Track:
     parts.append(np.column_stack([cr[0] + r * np.cos(a0 - ang), cr[1] + r * np.sin(a0 - ang)]))
     a1 = math.atan2(y_cross - cl[1], x_cross - cl[0])
     parts.append(np.column_stack([cl[0] + r * np.cos(a1 + ang), cl[1] + r * np.sin(a1 + ang)]))
-    far = float(w[:, 0].max())
+    far = float(w[:, 0].max()) - 3.0  # end of the exit lane, short of the last cones
     n_out = max(int((far - x_cross) / CENTRELINE_STEP_M), 2)
     parts.append(np.column_stack([np.linspace(x_cross, far, n_out),
                                 np.full(n_out, y_cross)]))

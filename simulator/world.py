@@ -1,0 +1,308 @@
+"""SimWorld: the simulated car on a track, with every sensor model, faults and scoring.
+
+``step_to(t_s, command)`` integrates the vehicle at ``config.sim.physics_rate_hz`` up to
+``t_s``; after every physics step each sensor model is polled with the true state, so each
+emits whatever falls due at its own rate. The raw units (``RawBytes`` / ``CanFrame``) come back
+in time order. Ground truth is kept aside (``truth()``), never fed to the stack. The world
+counts knocked cones (``cones_hit``: cone indices whose base the car's outline touched),
+off-track events (all four corners beyond a boundary) and start-line crossings (lap times).
+
+Deterministic: each sensor model gets its own generator spawned from ``seed`` in a fixed order,
+so the same seed and the same commands give the same bytes. A sensor model whose module does not
+import is skipped with a warning (``missing_models`` lists them).
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from common.config import AppConfig
+from common.messages import ActuatorCommand, AsState, CanFrame, GroundTruth, RawBytes
+from simulator.faults import Fault, parse_faults
+from simulator.tracks import Track
+from simulator.vehicle import Vehicle
+
+log = logging.getLogger(__name__)
+
+SENSOR_MODELS: tuple[tuple[str, str, str], ...] = (
+    ("gps", "simulator.gps_model", "GpsModel"),
+    ("imu", "simulator.imu_model", "ImuModel"),
+    ("can", "simulator.can_model", "CanModel"),
+    ("lidar", "simulator.lidar_model", "LidarModel"),
+    ("camera", "simulator.camera_model", "CameraModel"),
+)
+"""(name, module, class) of every sensor model, in the order their generators are spawned."""
+
+RawUnit = RawBytes | CanFrame
+
+_FAULT_SOURCE = {"gps-dropout": "gps", "lidar-dead": "lidar"}
+
+
+def _timestamp(unit: RawUnit) -> float:
+    return unit.timestamp_s
+
+
+class SimWorld:
+    """The simulated world (see the module docstring).
+
+    ``sensors``: names of the sensor models to run (default all of :data:`SENSOR_MODELS` that
+    are enabled in ``config.sim``); ``faults``: fault specs (default ``config.sim.faults``).
+    """
+
+    def __init__(self, config: AppConfig, track: Track, seed: int | None = None,
+                 faults: str | Iterable[str | Fault] | None = None,
+                 sensors: Sequence[str] | None = None) -> None:
+        self.config = config
+        self.track = track
+        self.seed = config.sim.seed if seed is None else int(seed)
+        self.dt_s = 1.0 / config.sim.physics_rate_hz
+        self.vehicle = Vehicle(config.car)
+        self.faults = parse_faults(config.sim.faults if faults is None else faults)
+        children = np.random.SeedSequence(self.seed).spawn(len(SENSOR_MODELS) + 1)
+        self.rng = np.random.default_rng(children[-1])
+        wanted = {name for name, _, _ in SENSOR_MODELS} if sensors is None else set(sensors)
+        self.models: dict[str, Any] = {}
+        self.missing_models: list[str] = []
+        for (name, module_name, class_name), child in zip(SENSOR_MODELS, children, strict=False):
+            if name not in wanted:
+                continue
+            section = getattr(config.sim, name, None)
+            if section is not None and not getattr(section, "enabled", True):
+                continue
+            try:
+                cls = getattr(importlib.import_module(module_name), class_name)
+            except (ImportError, AttributeError) as exc:
+                log.warning("sensor model %s.%s not available (%s): running without it",
+                            module_name, class_name, exc)
+                self.missing_models.append(name)
+                continue
+            self.models[name] = cls(config, np.random.default_rng(child))
+        self._step_index = 0
+        self._command: ActuatorCommand | None = None
+        self.cones_hit: set[int] = set()
+        """Indices (into ``track.cones_xy_m``) of every cone the car has touched."""
+        self.cone_hits: list[tuple[float, int]] = []
+        """(time_s, cone index) of each first touch."""
+        self.off_track_events = 0
+        """How many times the car went fully off the track."""
+        self.off_track = False
+        self.start_line_crossings_s: list[float] = []
+        """Times (s) the car crossed the start/finish line forwards."""
+        self.finish_crossings_s: list[float] = []
+        self._hint: int | None = None
+        self._line = self._line_geometry(track.start_line_xy_m)
+        self._finish = (self._line_geometry(track.finish_line_xy_m)
+                        if track.kind == "acceleration" else None)
+        self._start_behind_line = self._line is not None and self._line_side(self._line, 0, 0) < 0
+        self._res_state: tuple[bool, bool] | None = None
+        self._garbage_missing_warned = False
+        self._imu_nan_warned = False
+
+    # -- public ---------------------------------------------------------------------------
+
+    @property
+    def t_s(self) -> float:
+        """The simulated time reached (s)."""
+        return self._step_index * self.dt_s
+
+    def truth(self) -> GroundTruth:
+        """The car's true state now."""
+        return self.vehicle.truth(self.t_s)
+
+    @property
+    def laps_completed(self) -> int:
+        """Completed laps: start-line crossings, minus the first when the car starts behind it."""
+        n = len(self.start_line_crossings_s)
+        return max(n - 1, 0) if self._start_behind_line else n
+
+    @property
+    def lap_times_s(self) -> list[float]:
+        """Durations (s) of the completed laps (between consecutive start-line crossings)."""
+        c = self.start_line_crossings_s
+        if not self._start_behind_line:
+            c = [0.0, *c]
+        return [b - a for a, b in zip(c, c[1:], strict=False)]
+
+    def step_to(self, t_s: float, command: ActuatorCommand | None = None) -> list[RawUnit]:
+        """Advance to ``t_s`` (s) under ``command`` (None: keep the last one; before any, the
+        car rolls with no throttle and no brake). Returns every raw unit produced, in time
+        order (stable for equal times)."""
+        if command is not None:
+            self._command = command
+        cmd = self._command
+        dt = self.dt_s
+        n_target = int(math.floor(t_s / dt + 1e-9))
+        out: list[RawUnit] = []
+        vehicle = self.vehicle
+        st = vehicle.state
+        models = list(self.models.values())
+        faults = self.faults
+        while self._step_index < n_target:
+            self._step_index += 1
+            t = self._step_index * dt
+            if faults:
+                self._apply_faults(t)
+            x0, y0 = st.x_m, st.y_m
+            vehicle.step(cmd, dt)
+            self._score(t, x0, y0)
+            truth = vehicle.truth(t)
+            for model in models:
+                out.extend(model.poll(t, truth, vehicle, self.track))
+            if faults:
+                self._extra_units(t, out)
+        if faults:
+            out = self._filter(out)
+        out.sort(key=_timestamp)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Scores of the run so far (for the run summary)."""
+        return {
+            "t_s": self.t_s,
+            "distance_m": self.vehicle.state.distance_m,
+            "cones_hit": len(self.cones_hit),
+            "off_track_events": self.off_track_events,
+            "laps_completed": self.laps_completed,
+            "lap_times_s": self.lap_times_s,
+            "faults": [str(f) for f in self.faults],
+            "missing_models": list(self.missing_models),
+        }
+
+    # -- scoring ----------------------------------------------------------------------------
+
+    def _score(self, t: float, x0: float, y0: float) -> None:
+        vehicle = self.vehicle
+        st = vehicle.state
+        track = self.track
+        corners = vehicle.footprint_corners()
+        for i in track.cones_touched(corners):  # type: ignore[arg-type]
+            if i not in self.cones_hit:
+                self.cones_hit.add(i)
+                self.cone_hits.append((t, i))
+                log.info("t=%.2f s: cone %d knocked", t, i)
+        # off track: only worth the full test when the car is near a boundary
+        _, lateral, seg = track.locate(st.x_m, st.y_m, self._hint)
+        self._hint = seg
+        half = (track.left_half_width_m[seg] if lateral >= 0.0
+                else track.right_half_width_m[seg])
+        off = False
+        if abs(lateral) > half - 2.0:
+            off = track.is_off_track(np.array(corners), seg)
+        if off and not self.off_track:
+            self.off_track_events += 1
+            log.info("t=%.2f s: car off track", t)
+        self.off_track = off
+        if self._line is not None and self._crossed(self._line, x0, y0, st.x_m, st.y_m):
+            self.start_line_crossings_s.append(t)
+        if self._finish is not None and self._crossed(self._finish, x0, y0, st.x_m, st.y_m):
+            self.finish_crossings_s.append(t)
+
+    def _line_geometry(self, line: np.ndarray) -> tuple[float, ...] | None:
+        if not np.all(np.isfinite(line)):
+            return None
+        (ax, ay), (bx, by) = line.tolist()
+        length = math.hypot(bx - ax, by - ay)
+        if length <= 0.0:
+            return None
+        ux, uy = (bx - ax) / length, (by - ay) / length
+        mx, my = 0.5 * (ax + bx), 0.5 * (ay + by)
+        s, _, seg = self.track.locate(mx, my)
+        _, _, heading = self.track.point_at(s)
+        nx, ny = -uy, ux
+        if nx * math.cos(heading) + ny * math.sin(heading) < 0.0:
+            nx, ny = -nx, -ny
+        return mx, my, ux, uy, nx, ny, 0.5 * length + 1.0
+
+    @staticmethod
+    def _line_side(line: tuple[float, ...], x: float, y: float) -> float:
+        mx, my, _, _, nx, ny, _ = line
+        return (x - mx) * nx + (y - my) * ny
+
+    @staticmethod
+    def _crossed(line: tuple[float, ...], x0: float, y0: float, x1: float, y1: float) -> bool:
+        mx, my, ux, uy, nx, ny, half = line
+        d0 = (x0 - mx) * nx + (y0 - my) * ny
+        d1 = (x1 - mx) * nx + (y1 - my) * ny
+        if not (d0 < 0.0 <= d1):
+            return False
+        f = d0 / (d0 - d1)
+        cx, cy = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+        return abs((cx - mx) * ux + (cy - my) * uy) <= half
+
+    # -- faults -----------------------------------------------------------------------------
+
+    def _active(self, kind: str, t: float) -> bool:
+        return any(f.kind == kind and f.active(t) for f in self.faults)
+
+    def _apply_faults(self, t: float) -> None:
+        models = self.models
+        can = models.get("can")
+        if any(f.kind == "estop" for f in self.faults):
+            started = any(f.kind == "estop" and t >= f.start_s for f in self.faults)
+            state = (True, False) if self._active("estop", t) else (
+                (False, False) if started else (False, True))
+            if state != self._res_state and can is not None and hasattr(can, "set_res"):
+                can.set_res(emergency=state[0], go=state[1])
+                if state[0]:
+                    log.info("t=%.2f s: fault: RES emergency stop pressed", t)
+            self._res_state = state
+        gps = models.get("gps")
+        if gps is not None and hasattr(gps, "dropout"):
+            gps.dropout = self._active("gps-dropout", t)
+        lidar = models.get("lidar")
+        if lidar is not None and hasattr(lidar, "dead"):
+            lidar.dead = self._active("lidar-dead", t)
+        imu = models.get("imu")
+        if imu is not None:
+            if hasattr(imu, "inject_nan"):
+                imu.inject_nan = self._active("imu-nan", t)
+            elif not self._imu_nan_warned and self._active("imu-nan", t):
+                log.warning("imu-nan fault: the IMU model has no inject_nan switch; ignored")
+                self._imu_nan_warned = True
+        if can is not None and hasattr(can, "garbage"):
+            can.garbage = self._active("can-garbage", t)
+
+    def _extra_units(self, t: float, out: list[RawUnit]) -> None:
+        """CAN garbage made here when the CAN model cannot make it itself."""
+        can = self.models.get("can")
+        if can is not None and hasattr(can, "garbage"):
+            return
+        if not self._active("can-garbage", t):
+            return
+        if self._step_index % max(int(round(0.01 / self.dt_s)), 1):
+            return
+        rng = self.rng
+        for _ in range(int(rng.poisson(2.0))):
+            arbitration_id = int(rng.integers(0x600, 0x7FF))
+            data = bytes(rng.integers(0, 256, int(rng.integers(0, 9))).astype(np.uint8).tolist())
+            out.append(CanFrame(t, arbitration_id, data))
+
+    def _filter(self, out: list[RawUnit]) -> list[RawUnit]:
+        """Drop what dead or silent sensors would not send (also when a model has no switch)."""
+        drop: set[str] = set()
+        for f in self.faults:
+            source = _FAULT_SOURCE.get(f.kind)
+            if source is not None:
+                drop.add(source)
+        if not drop:
+            return out
+        faults = [f for f in self.faults if f.kind in _FAULT_SOURCE]
+        kept: list[RawUnit] = []
+        for unit in out:
+            if isinstance(unit, RawBytes) and unit.source in drop and any(
+                    _FAULT_SOURCE[f.kind] == unit.source and f.active(unit.timestamp_s)
+                    for f in faults):
+                continue
+            kept.append(unit)
+        return kept
+
+
+def idle_command(t_s: float) -> ActuatorCommand:
+    """No throttle, no brake, wheels straight (what the car does with nobody at the wheel)."""
+    return ActuatorCommand(t_s, 0.0, 0.0, 0.0, AsState.OFF)
