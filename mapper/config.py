@@ -86,12 +86,13 @@ class UkfConfig:
     odometry_gate_sigma: float = 5.0
     gnss_position_sigma_m: float = 2.5
     gnss_position_gate_sigma: float = 4.0
-    gnss_speed_sigma_mps: float = 0.08
+    gnss_speed_sigma_mps: float = 0.1
     gnss_min_speed_mps: float = 1.0
     """Seed 001: GNSS velocity and track are fused only above this speed."""
     gnss_antenna_x_m: float = 0.0
     """GNSS antenna ahead of the vehicle origin (m): its velocity has a yaw-rate component."""
-    gnss_track_sigma_floor_rad: float = 0.01
+    gnss_track_sigma_floor_rad: float = 0.05
+    """The receiver's own course noise: the track's sigma is max(sigma_v / v, this)."""
     gnss_velocity_gate_sigma: float = 5.0
     cone_sigma_m: float = 0.05
     cone_association_m: float = 1.0
@@ -104,7 +105,7 @@ class UkfConfig:
     start_heading_known: bool = False
     """True: the world frame's heading in ENU is config.sim.start_heading_enu_rad (dual antenna,
     magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
-    heading_estimate_samples: int = 50
+    heading_estimate_samples: int = 100
     """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
     heading_estimate_max_yaw_rate_radps: float = 0.1
     track_alignment_distance_m: float = 20.0

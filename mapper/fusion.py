@@ -99,7 +99,7 @@ def predict_forward(state: FloatArray, t_from_s: float, samples: Sequence[ImuSam
     the IMU ``samples`` newer than it; returns (state (6,), time reached)."""
     x, y, yaw, vx, vy, w = (float(v) for v in state[:6])
     t = t_from_s
-    bx, by = float(accel_bias_mps2[0]), float(accel_bias_mps2[1])
+    bx = float(accel_bias_mps2[0])
     for s in samples:
         dt = s.timestamp_s - t
         if dt <= 0.0:
