@@ -30,7 +30,6 @@ correction, :data:`LASER_VERTICAL_OFFSET_M`), added to z as the manual (and velo
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -87,6 +86,14 @@ _RETURN_TIME_S = np.array(
     dtype=np.float32,
 )
 """Time of each (block, return) after the first firing of block 0 (s), (12, 32) float32."""
+_RETURN_TIME_FLAT = _RETURN_TIME_S.ravel().astype(np.float64)
+_DT_IN_BLOCK_S = (_RETURN_TIME_S[0] - _RETURN_TIME_S[0, 0]).astype(np.float32)  # (32,)
+_SINGLE_SPAN_S = np.float32(_RETURN_TIME_S[BLOCKS_PER_PACKET - 1, 0] - _RETURN_TIME_S[0, 0])
+_DUAL_SPAN_S = np.float32(_RETURN_TIME_S[(BLOCKS_PER_PACKET - 1) // 2, 0] - _RETURN_TIME_S[0, 0])
+_RETURN = np.dtype({"names": ["d", "r"], "formats": ["<u2", "u1"], "offsets": [0, 2],
+                    "itemsize": 3})
+_COS_AZ = np.cos(np.radians(np.arange(36000) * 0.01))
+_SIN_AZ = np.sin(np.radians(np.arange(36000) * 0.01))
 _COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
 _SIN_EL = np.sin(np.radians(LASER_ELEVATION_DEG))
 
@@ -120,67 +127,71 @@ def check_packet(payload: bytes) -> None:
         raise DecodeError(f"bad_azimuth: block azimuth {int(azimuths.max())} >= 36000")
 
 
-def decode_packets(payloads: Sequence[bytes]) -> DecodedPackets:
+def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedPackets:
     """Decode VLP-16 data packets, vectorised over all of them.
 
     Raises :class:`DecodeError` (message starting with the reject reason ``bad_length``,
-    ``bad_flag`` or ``bad_azimuth``) if any of them is malformed.
+    ``bad_flag`` or ``bad_azimuth``) if any of them is malformed; ``checked=True`` skips the
+    checks for packets that already passed :func:`check_packet`.
     """
-    for payload in payloads:
-        check_packet(payload)
+    if not checked:
+        for payload in payloads:
+            check_packet(payload)
     n_packets = len(payloads)
     if n_packets == 0:
         empty = np.zeros(0)
         return DecodedPackets(np.zeros((0, 4)), empty, np.zeros(0, np.int64), empty,
                               np.zeros(0, np.int64))
-    body = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(n_packets, PACKET_SIZE)
-    dual = body[:, 1204] == RETURN_MODE_DUAL
-    blocks = body[:, :1200].reshape(n_packets, BLOCKS_PER_PACKET, BLOCK_SIZE)
-    block_az = blocks[:, :, 2].astype(np.int64) | (blocks[:, :, 3].astype(np.int64) << 8)
-    # returns: (P, 12, 32) distance uint16 and reflectivity uint8
-    rets = blocks[:, :, 4:].reshape(n_packets, BLOCKS_PER_PACKET, RETURNS_PER_BLOCK, 3)
-    distance = rets[..., 0].astype(np.uint16) | (rets[..., 1].astype(np.uint16) << 8)
-    reflectivity = rets[..., 2]
+    buf = b"".join(payloads)
+    # block azimuths: uint16 at byte 2 + 100 b of each packet (all offsets even)
+    words = np.frombuffer(buf, dtype="<u2").reshape(n_packets, PACKET_SIZE // 2)
+    block_az = words[:, 1:600:50]  # (P, 12)
+    mode = np.frombuffer(buf, dtype=np.uint8)[1204::PACKET_SIZE]
+    rets = np.ndarray(shape=(n_packets, BLOCKS_PER_PACKET, RETURNS_PER_BLOCK), dtype=_RETURN,
+                      buffer=buf, offset=4, strides=(PACKET_SIZE, BLOCK_SIZE, 3))
+    distance = rets["d"]
+    dual = mode == RETURN_MODE_DUAL
+    any_dual = bool(dual.any())
 
-    # timing: in dual-return mode block pairs (0,1), (2,3)... share one firing time
-    block_idx = np.arange(BLOCKS_PER_PACKET)
-    timing_block = np.where(dual[:, None], block_idx[None, :] // 2, block_idx[None, :])
-    times = _RETURN_TIME_S[timing_block]  # (P, 12, 32) float32
-    last_timed = np.where(dual, (BLOCKS_PER_PACKET - 1) // 2, BLOCKS_PER_PACKET - 1)
-    duration = _RETURN_TIME_S[last_timed, 0] - _RETURN_TIME_S[0, 0]  # float32
-    az_diff = (block_az[:, -1] - block_az[:, 0] + 36000) % 36000
-    rate = az_diff.astype(np.float32) / duration  # hundredths of a degree per second, float32
-    dt = times - times[:, :, :1]
-    az_f = (block_az.astype(np.float32)[:, :, None] + rate[:, None, None] * dt) + np.float32(36000)
-    # lround: half away from zero (all values are positive)
-    azimuth = (np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64)) % 36000
+    # azimuth of each return: block azimuth + packet rotation rate x time since the block's
+    # first firing, in float32 and rounded like velodyne-decoder; dual-return packets hold
+    # each firing twice (blocks 2i, 2i+1) and span half the time
+    az_diff = (block_az[:, -1].astype(np.int64) - block_az[:, 0] + 36000) % 36000
+    duration = np.where(dual, _DUAL_SPAN_S, _SINGLE_SPAN_S)
+    rate = az_diff.astype(np.float32) / duration  # (P,) hundredths of a degree per second
+    az_f = (block_az.astype(np.float32)[:, :, None] + rate[:, None, None] * _DT_IN_BLOCK_S)
+    az_f += np.float32(36000)
+    azimuth = np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64) - 36000
+    azimuth[azimuth >= 36000] -= 36000
 
     valid = distance > 0
-    if dual.any():
+    if any_dual:
         # keep the strongest return (odd blocks) only, so each ring is one line of returns
-        keep_block = ~dual[:, None] | (block_idx[None, :] % 2 == 1)
-        valid &= keep_block[:, :, None]
-    laser = np.tile(np.arange(LASERS), 2)[None, None, :]
-    laser_full = np.broadcast_to(laser, valid.shape)
-
-    p_idx, b_idx, r_idx = np.nonzero(valid)
-    laser_id = laser_full[p_idx, b_idx, r_idx]
-    dist_m = distance[p_idx, b_idx, r_idx].astype(np.float64) * DISTANCE_UNIT_M
-    az_hundredths = azimuth[p_idx, b_idx, r_idx]
-    az_rad = az_hundredths * (math.pi / 18000.0)
-    v_off = LASER_VERTICAL_OFFSET_M[laser_id]
+        valid &= (~dual[:, None] | (np.arange(BLOCKS_PER_PACKET)[None, :] % 2 == 1))[:, :, None]
+    flat = np.flatnonzero(valid)
+    laser_id = flat & 15
+    dist_m = distance.ravel()[flat] * DISTANCE_UNIT_M
+    az_idx = azimuth.ravel()[flat]
+    packet_index = flat // (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
+    in_packet = flat - packet_index * (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
+    if any_dual:
+        block = in_packet // RETURNS_PER_BLOCK
+        timing = np.where(dual[packet_index], block // 2, block) * RETURNS_PER_BLOCK + (flat & 31)
+        time_offset = _RETURN_TIME_FLAT[timing]
+    else:
+        time_offset = _RETURN_TIME_FLAT[in_packet]
     xy = dist_m * _COS_EL[laser_id]
-    points = np.empty((dist_m.shape[0], 4))
-    points[:, 0] = xy * np.cos(az_rad)
-    points[:, 1] = -xy * np.sin(az_rad)
-    points[:, 2] = dist_m * _SIN_EL[laser_id] + v_off
-    points[:, 3] = reflectivity[p_idx, b_idx, r_idx]
+    points = np.empty((flat.size, 4))
+    points[:, 0] = xy * _COS_AZ[az_idx]
+    points[:, 1] = -xy * _SIN_AZ[az_idx]
+    points[:, 2] = dist_m * _SIN_EL[laser_id] + LASER_VERTICAL_OFFSET_M[laser_id]
+    points[:, 3] = rets["r"].ravel()[flat]
     return DecodedPackets(
         points=points,
-        azimuth_deg=az_hundredths * 0.01,
+        azimuth_deg=az_idx * 0.01,
         rings=LASER_RING[laser_id],
-        time_offset_s=times[p_idx, b_idx, r_idx].astype(np.float64),
-        packet_index=p_idx.astype(np.int64),
+        time_offset_s=time_offset,
+        packet_index=packet_index,
     )
 
 
@@ -315,7 +326,7 @@ class SweepAssembler:
         self._payloads, self._stamps = [], []
         if not payloads and self._carry is None:
             return []
-        dec = decode_packets(payloads)
+        dec = decode_packets(payloads, checked=True)
         t0 = self.clock.to_clock(np.asarray(stamps, dtype=np.float64))
         times = t0[dec.packet_index] + dec.time_offset_s if payloads else dec.time_offset_s
         points, rings = dec.points, dec.rings

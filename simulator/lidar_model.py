@@ -170,7 +170,8 @@ class LidarModel:
         k * PACKET_DURATION_S), the car's pose extrapolated from ``truth``."""
         if ks.size and int(ks[-1] - ks[0]) != ks.size - 1:
             raise ValueError("LidarModel.packets: packet numbers must be consecutive")
-        t_seq = (ks[:, None] * PACKET_DURATION_S + self._seq_t[None, :]).ravel()  # (F,)
+        t_seq: NDArray[np.float64] = np.ravel(
+            ks[:, None] * PACKET_DURATION_S + self._seq_t[None, :]).astype(np.float64)  # (F,)
         az_seq = self._azimuth_deg(t_seq)
         n_rays = t_seq.size * LASERS
         # ground and car body: tabulated per 0.1 deg of azimuth, in raw 2 mm units
