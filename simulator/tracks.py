@@ -204,6 +204,9 @@ class Track:
     _seg_len: FloatArray = field(init=False, repr=False)
     _grid: dict[tuple[int, int], list[int]] = field(init=False, repr=False)
     _grid_cell_m: float = field(init=False, repr=False, default=4.0)
+    _seg_list: list[tuple[float, float, float, float, float]] = field(init=False, repr=False)
+    _s_list: list[float] = field(init=False, repr=False)
+    _len_list: list[float] = field(init=False, repr=False)
     _cone_list: list[tuple[float, float, float]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -222,6 +225,11 @@ class Track:
         self._seg_a, self._seg_ab = _segments(c, self.is_loop)
         self._seg_len = np.hypot(self._seg_ab[:, 0], self._seg_ab[:, 1])
         self.centreline_s_m = np.concatenate([[0.0], np.cumsum(self._seg_len)])[: len(c)]
+        self._seg_list = [(float(a[0]), float(a[1]), float(b[0]), float(b[1]),
+                           max(float(b[0] * b[0] + b[1] * b[1]), 1e-12))
+                          for a, b in zip(self._seg_a, self._seg_ab, strict=True)]
+        self._s_list = self.centreline_s_m.tolist()
+        self._len_list = self._seg_len.tolist()
         self.cone_radius_m = np.where(self.sizes == ConeSize.LARGE, LARGE_CONE_RADIUS_M,
                                       SMALL_CONE_RADIUS_M)
         self._half_widths()
@@ -285,9 +293,62 @@ class Track:
 
         Returns ``(progress_m, lateral_m, segment_index)``: arc length from the first sample,
         signed lateral offset (positive left of the driving direction) and the segment. With a
-        ``hint`` (a previous segment index) only ``window`` segments either side are searched,
-        which is faster and follows self-crossing paths (skidpad) correctly.
+        ``hint`` (a previous segment index) the search walks from there to the nearest segment
+        within ``window`` segments either side, which is fast and follows self-crossing paths
+        (skidpad) correctly.
         """
+        if hint is not None:
+            found = self._locate_local(x_m, y_m, hint, window)
+            if found is not None:
+                return found
+        return self._locate_global(x_m, y_m, hint, window)
+
+    def _seg_distance2(self, x: float, y: float, k: int) -> float:
+        ax, ay, abx, aby, ab2 = self._seg_list[k]
+        t = ((x - ax) * abx + (y - ay) * aby) / ab2
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        dx = x - ax - t * abx
+        dy = y - ay - t * aby
+        return dx * dx + dy * dy
+
+    def _locate_local(self, x: float, y: float, hint: int,
+                      window: int) -> tuple[float, float, int] | None:
+        """Walk from segment ``hint`` downhill in distance (pure Python, a few segments)."""
+        n = len(self._seg_list)
+        loop = self.is_loop
+        if not 0 <= hint < n:
+            return None
+        best = hint
+        best_d2 = self._seg_distance2(x, y, hint)
+        for direction in (1, -1):
+            k = hint
+            misses = 0
+            for _ in range(window):
+                k += direction
+                if loop:
+                    k %= n
+                elif not 0 <= k < n:
+                    break
+                d2 = self._seg_distance2(x, y, k)
+                if d2 < best_d2:
+                    best, best_d2 = k, d2
+                    misses = 0
+                else:
+                    misses += 1
+                    if misses > 3:
+                        break
+        ax, ay, abx, aby, ab2 = self._seg_list[best]
+        t = ((x - ax) * abx + (y - ay) * aby) / ab2
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        px, py = x - ax, y - ay
+        s = self._s_list[best] + t * self._len_list[best]
+        cross = abx * py - aby * px
+        lateral = math.sqrt(best_d2) * (1.0 if cross >= 0.0 else -1.0)
+        return s, lateral, best
+
+    def _locate_global(
+        self, x_m: float, y_m: float, hint: int | None, window: int
+    ) -> tuple[float, float, int]:
         a, ab = self._seg_a, self._seg_ab
         k = len(a)
         if hint is not None and 2 * window + 1 < k:
@@ -350,8 +411,11 @@ class Track:
         cy = sum(p[1] for p in poly) / len(poly)
         reach = max(math.hypot(p[0] - cx, p[1] - cy) for p in poly) + LARGE_CONE_RADIUS_M
         hits: list[int] = []
+        reach2 = reach * reach
         for i in self.cones_near(cx, cy, reach):
             x, y, r = self._cone_list[i]
+            if (x - cx) * (x - cx) + (y - cy) * (y - cy) > reach2:
+                continue
             if _circle_touches_polygon(x, y, r, poly):
                 hits.append(i)
         return sorted(hits)

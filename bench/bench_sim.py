@@ -1,0 +1,79 @@
+"""Simulator speed: simulated seconds per wall second.
+
+60 s (``--duration``) of the default track with every sensor model on, driven by the
+ScriptedDriver (commands at 100 Hz, as the controller would give them). Prints the time spent
+in physics + scoring and in each sensor model, then ``realtime_factor=<x>`` (target >= 10).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections import defaultdict
+from typing import Any
+
+from common.config import AppConfig
+
+HELP = "simulated seconds per wall second, default track, every sensor on"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``bench sim``."""
+    parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
+    parser.add_argument("--track", default="default", help="track name or file")
+    parser.add_argument("--seed", type=int, default=1)
+
+
+class _Timed:
+    """Wraps a sensor model and adds its poll time to a shared table."""
+
+    def __init__(self, name: str, model: Any, table: dict[str, float]) -> None:
+        self._name = name
+        self._model = model
+        self._table = table
+
+    def poll(self, *args: Any) -> Any:
+        t0 = time.perf_counter()
+        out = self._model.poll(*args)
+        self._table[self._name] += time.perf_counter() - t0
+        return out
+
+    def __getattr__(self, item: str) -> Any:
+        return getattr(self._model, item)
+
+
+def run(args: argparse.Namespace, config: AppConfig) -> int:
+    """Run the benchmark; print per-part times and ``realtime_factor=``."""
+    from simulator.driver import ScriptedDriver
+    from simulator.tracks import load_track
+    from simulator.world import SimWorld
+
+    track = load_track(args.track)
+    world = SimWorld(config, track, seed=args.seed)
+    if world.missing_models:
+        print(f"missing sensor models: {', '.join(world.missing_models)}")
+    table: dict[str, float] = defaultdict(float)
+    world.models = {name: _Timed(name, m, table) for name, m in world.models.items()}
+    driver = ScriptedDriver(track, config.car, seed=args.seed,
+                            speed_mps=config.sim.driver_speed_mps)
+    control_dt = 0.01
+    n = int(round(args.duration / control_dt))
+    units = 0
+    t_driver = 0.0
+    wall0 = time.perf_counter()
+    for k in range(1, n + 1):
+        t0 = time.perf_counter()
+        cmd = driver.command(world.truth(), world.t_s)
+        t_driver += time.perf_counter() - t0
+        units += len(world.step_to(k * control_dt, cmd))
+    wall = time.perf_counter() - wall0
+    sensors = sum(table.values())
+    print(f"track={track.name} simulated={world.t_s:.1f}s wall={wall:.2f}s units={units}")
+    print(f"summary: {world.summary()}")
+    print(f"  physics+scoring+sorting: {wall - sensors - t_driver:7.3f} s "
+          f"({100 * (wall - sensors - t_driver) / wall:5.1f} %)")
+    print(f"  scripted driver:         {t_driver:7.3f} s ({100 * t_driver / wall:5.1f} %)")
+    for name, seconds in sorted(table.items(), key=lambda kv: -kv[1]):
+        print(f"  {name + ' model:':24s} {seconds:7.3f} s ({100 * seconds / wall:5.1f} %)")
+    print(f"realtime_factor={world.t_s / wall:.2f}")
+    return 0
