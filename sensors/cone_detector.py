@@ -164,10 +164,11 @@ class ConeDetector:
         rng = np.hypot(cx, cy)
         exp_small = self._expected_hits(rng, ConeSize.SMALL, az_step)
         exp_large = self._expected_hits(rng, ConeSize.LARGE, az_step)
-        # rings a cone of either size could be seen on with 2+ returns at that range
-        reachable = np.maximum((exp_small >= 2.0).sum(axis=1), (exp_large >= 2.0).sum(axis=1))
+        # one layer is enough where a small cone cannot show on more rings at that range
+        reachable_small = (exp_small >= 2.0).sum(axis=1)
         layer_ok = (layers >= cfg.min_layers) | (
-            (layers >= 1) & (rng > cfg.single_layer_beyond_m) & (reachable < cfg.min_layers))
+            (layers >= 1) & (rng > cfg.single_layer_beyond_m)
+            & (reachable_small < cfg.min_layers))
         height_ok = top < cfg.large_height_m + cfg.height_tolerance_m
         final = ~clustered & layer_ok & (npts >= cfg.min_points) & height_ok
         # size: a top above small_height_m is a large cone; else compare per-ring counts
