@@ -75,17 +75,18 @@ class PathPlanner:
     def start_autonomous(self, map_state: MapState) -> None:
         """Build the baseframe and start the autonomous laps.
 
-        One closed lap of recorded waypoints when the exploration drive came back to its start;
-        otherwise waypoints from the cone map. A failure is logged and counted; :meth:`plan` then
-        keeps trying from the cone map.
+        One closed lap of recorded waypoints when the exploration drive came back to its start,
+        an open frame through them when it did not (e.g. acceleration); with no exploration drive
+        waypoints from the cone map. A failure is logged and counted; :meth:`plan` then keeps
+        trying from the cone map.
         """
         self.autonomous = True
-        if len(self.book) >= 8 and self.book.close_loop(
-            self.config.loop_close_distance_m, self.config.min_loop_length_m
-        ):
-            self._build_frame(self.book.points_xy_m, True, "waypoints", map_state)
-        elif len(self.book) >= 8:
-            logger.warning("exploration drive did not close a lap; using the cone map")
+        if len(self.book) >= 8:
+            closed = self.book.close_loop(self.config.loop_close_distance_m,
+                                          self.config.min_loop_length_m)
+            if not closed:
+                logger.info("exploration drive did not close a lap: an open baseframe")
+            self._build_frame(self.book.points_xy_m, closed, "waypoints", map_state)
         if self.frame is None:
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)

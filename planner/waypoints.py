@@ -76,6 +76,8 @@ class WaypointBook:
         The lap ends at the waypoint nearest the first one after at least ``min_length_m`` of
         driving (and past half the drive), if that is within ``close_distance_m``.
         """
+        if self.closed:  # already one lap (set_points(..., closed=True))
+            return True
         pts = self.points_xy_m
         if len(pts) < 8:
             return False
@@ -98,7 +100,8 @@ class WaypointBook:
         return True
 
     def next_waypoints(self, x_m: float, y_m: float) -> FloatArray:
-        """Drop the waypoints the car has reached and serve the next ones (served, 2) (m)."""
+        """Drop the waypoints the car has reached (or passed: the next one is nearer) and serve
+        the next ones (served, 2) (m)."""
         pts = self.points_xy_m
         n = len(pts)
         if n == 0:
@@ -110,8 +113,16 @@ class WaypointBook:
                         break
                     self.cursor = 0
                 wx, wy = pts[self.cursor]
-                if math.hypot(wx - x_m, wy - y_m) > self.reach_m:
-                    break
+                dist = math.hypot(wx - x_m, wy - y_m)
+                if dist > self.reach_m:
+                    # passed by without reaching it: drop it when the next one is nearer
+                    nxt = self.cursor + 1
+                    if nxt >= n:
+                        if not self.closed:
+                            break
+                        nxt = 0
+                    if math.hypot(pts[nxt][0] - x_m, pts[nxt][1] - y_m) >= dist:
+                        break
                 self.cursor += 1
             if self.closed:
                 self.cursor %= n

@@ -1,0 +1,38 @@
+"""Closed loop with perfect pose: planner + controller drive laps of FSG with no cone hit, near
+the friction-limited minimum lap time (a kinematic bicycle stands in for the vehicle)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from common.config import AppConfig
+from common.messages import AsState
+from planner.speed_profile import min_lap_time_s
+from planner_closed_loop_helpers import run_closed_loop
+from simulator.tracks import load_track
+
+FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_fssim" / "FSG.yaml"
+
+
+@pytest.mark.skipif(not FSG.exists(), reason="shared data not present")
+def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time() -> None:
+    config = AppConfig()
+    track = load_track(str(FSG))
+    result = run_closed_loop(config, track, laps=2, max_time_s=90.0)
+    assert result.cones_hit == set()
+    assert result.off_track == 0
+    assert result.final_state == AsState.FINISHED
+    assert result.stop_reason.startswith("finished")
+    assert result.lap_times_s, "no flying lap timed"
+    t_min = min_lap_time_s(track.centreline_xy_m, config.car)
+    assert min(result.lap_times_s) <= 1.25 * t_min
+
+
+def test_unknown_track_from_the_cone_map_default() -> None:
+    config = AppConfig()
+    track = load_track("default")
+    result = run_closed_loop(config, track, laps=1, max_time_s=60.0)
+    assert result.cones_hit == set()
+    assert result.final_state == AsState.FINISHED
