@@ -1,0 +1,224 @@
+"""Tracks: every shared track file loads, the centreline lies between the cones, the generator
+follows the Formula Student rules, bad files give clear errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from common.errors import TrackError
+from common.messages import ConeColour, ConeSize
+from simulator.track_generator import check_fs_rules, default_track, generate_track
+from simulator.tracks import load_track, nearest_on_polyline
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks"
+TRACK_FILES = sorted(DATA.glob("*/*.csv")) + sorted(DATA.glob("*/*.yaml"))
+
+pytestmark = pytest.mark.skipif(not DATA.exists(), reason="shared track data not available")
+
+
+def _expected_counts(path: Path) -> dict[int, int]:
+    """Cone counts per colour, read straight from the file."""
+    counts: dict[int, int] = {}
+    if path.suffix == ".csv":
+        names = {"blue": ConeColour.BLUE, "yellow": ConeColour.YELLOW,
+                 "orange": ConeColour.ORANGE, "big_orange": ConeColour.BIG_ORANGE}
+        for line in path.read_text().splitlines():
+            tag = line.split(",")[0].strip()
+            if tag in names:
+                counts[names[tag]] = counts.get(names[tag], 0) + 1
+    else:
+        import yaml
+
+        data = yaml.safe_load(path.read_text())
+        for key, colour in (("cones_left", ConeColour.BLUE), ("cones_right", ConeColour.YELLOW),
+                            ("cones_orange", ConeColour.ORANGE),
+                            ("cones_orange_big", ConeColour.BIG_ORANGE)):
+            if data.get(key):
+                counts[colour] = len(data[key])
+    return counts
+
+
+def test_track_files_present() -> None:
+    assert len(TRACK_FILES) >= 8
+
+
+@pytest.mark.parametrize("path", TRACK_FILES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_every_track_file_loads_with_its_cone_counts(path: Path) -> None:
+    track = load_track(str(path))
+    expected = _expected_counts(path)
+    got = {c: int(np.sum(track.colours == c)) for c in expected}
+    assert got == expected
+    assert len(track.cones_xy_m) == sum(expected.values())
+    big = track.colours == ConeColour.BIG_ORANGE
+    assert np.all(track.sizes[big] == ConeSize.LARGE)
+    assert np.all(track.sizes[~big] == ConeSize.SMALL)
+    assert track.lap_length_m > 50.0
+    assert np.all(np.isfinite(track.centreline_xy_m))
+    # the car starts at the origin facing +x, on the track near the centreline
+    s, lateral, _ = track.locate(0.0, 0.0)
+    assert abs(lateral) < 1.0
+    x, y, heading = track.point_at(s + 1.0)
+    assert abs(math.atan2(math.sin(heading), math.cos(heading))) < 0.2
+
+
+@pytest.mark.parametrize("path", [p for p in TRACK_FILES if "skidpad" not in p.name],
+                         ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_centreline_lies_between_left_and_right_cones(path: Path) -> None:
+    track = load_track(str(path))
+    c = track.centreline_xy_m
+    # each blue cone is left of the centreline, each yellow cone right of it
+    for colour, sign in ((ConeColour.BLUE, 1.0), (ConeColour.YELLOW, -1.0)):
+        cones = track.cones_xy_m[track.colours == colour]
+        lateral = np.array([track.locate(float(x), float(y))[1] for x, y in cones])
+        assert np.all(sign * lateral > 0.5), (colour, lateral.min(), lateral.max())
+    # and every centreline sample is at least 0.5 m from both boundaries
+    if track.is_loop:
+        dl = nearest_on_polyline(c, track.left_xy_m, True)[0]
+        dr = nearest_on_polyline(c, track.right_xy_m, True)[0]
+        assert dl.min() > 0.5 and dr.min() > 0.5
+        assert np.abs(dl - dr).max() < 1.5  # roughly in the middle
+
+
+def test_skidpad_centreline_is_on_the_circles() -> None:
+    for path in [p for p in TRACK_FILES if "skidpad" in p.name]:
+        track = load_track(str(path))
+        assert track.kind == "skidpad" and not track.is_loop
+        # every knocked-cone-free path: centreline samples keep 1 m from every cone
+        c = track.centreline_xy_m
+        d = np.hypot(c[:, None, 0] - track.cones_xy_m[None, :, 0],
+                     c[:, None, 1] - track.cones_xy_m[None, :, 1])
+        assert d.min() > 1.0, path.name
+        # two right laps then two left laps: about 4 circumferences of ~9.1 m radius
+        assert 4 * 2 * math.pi * 8.5 < track.lap_length_m < 4 * 2 * math.pi * 9.5 + 60
+
+
+def test_acceleration_is_a_straight_not_a_loop() -> None:
+    for path in [p for p in TRACK_FILES if "accel" in p.name]:
+        track = load_track(str(path))
+        assert track.kind == "acceleration" and not track.is_loop
+        assert np.all(np.isfinite(track.finish_line_xy_m))
+        # start and finish lines 75 m apart
+        gap = np.hypot(*(track.finish_line_xy_m.mean(axis=0) - track.start_line_xy_m.mean(axis=0)))
+        assert abs(gap - 75.0) < 1.0
+
+
+def test_fsg_start_line_is_the_big_orange_gate() -> None:
+    track = load_track(str(DATA / "amz_fssim" / "FSG.yaml"))
+    mid = track.start_line_xy_m.mean(axis=0)
+    # FSSIM gives the front wing at x=0; the gate is at 6 m, the rear axle 2.25 m behind
+    assert mid[0] == pytest.approx(8.25, abs=0.05)
+    assert abs(mid[1]) < 0.1
+    assert 300.0 < track.lap_length_m < 320.0
+
+
+def test_default_track() -> None:
+    track = load_track("default")
+    assert track.name == "default"
+    assert track.is_loop
+    assert 250.0 <= track.lap_length_m <= 350.0
+    assert 3.5 <= track.width_m <= 4.0
+    assert check_fs_rules(track) == []
+    assert int(np.sum(track.colours == ConeColour.BIG_ORANGE)) == 4
+    assert track is default_track()
+
+
+def test_generator_makes_rule_abiding_tracks_for_50_seeds() -> None:
+    lengths = []
+    for seed in range(50):
+        track = generate_track(seed)
+        assert check_fs_rules(track) == [], seed
+        assert track.is_loop and track.name == f"gen:{seed}"
+        lengths.append(track.lap_length_m)
+    assert len(set(np.round(lengths, 3))) == 50  # all different
+
+
+def test_generator_is_deterministic() -> None:
+    a = generate_track.__wrapped__(7)
+    b = generate_track.__wrapped__(7)
+    np.testing.assert_array_equal(a.cones_xy_m, b.cones_xy_m)
+    assert load_track("gen:7").lap_length_m == pytest.approx(a.lap_length_m)
+
+
+def test_rule_checker_flags_broken_rules() -> None:
+    track = generate_track.__wrapped__(3)
+    # drop every other left cone: gaps over 5 m
+    keep = np.ones(len(track.left_xy_m), bool)
+    keep[::2] = False
+    track.left_xy_m = track.left_xy_m[keep]
+    problems = check_fs_rules(track)
+    assert any("left cones" in p for p in problems)
+    fsg = load_track(str(DATA / "amz_fssim" / "FSG.yaml"))
+    assert not any("lap" in p or "hairpin" in p or "straight" in p for p in check_fs_rules(fsg))
+
+
+def test_cones_touched_and_off_track() -> None:
+    track = load_track("default")
+    i = int(np.nonzero(track.colours == ConeColour.BLUE)[0][5])
+    x, y = track.cones_xy_m[i]
+    square = np.array([[x - 0.5, y - 0.5], [x + 0.5, y - 0.5], [x + 0.5, y + 0.5],
+                       [x - 0.5, y + 0.5]])
+    assert i in track.cones_touched(square)
+    # just clear of the cone's base (radius 0.114 m)
+    clear = square + np.array([0.5 + 0.114 + 0.01, 0.0])
+    assert i not in track.cones_touched(clear)
+    # a car-sized box on the centreline is on the track; 10 m to the side it is off
+    car = np.array([[-0.65, -0.7], [2.25, -0.7], [2.25, 0.7], [-0.65, 0.7]])
+    assert not track.is_off_track(car)
+    assert track.cones_touched(car) == []
+    s, lat, seg = track.locate(0.0, 0.0)
+    assert not track.is_off_track(car + np.array([0.0, 1.0]))
+    assert track.is_off_track(car + np.array([0.0, -10.0]))
+
+
+def test_progress_increases_along_the_lap() -> None:
+    track = load_track("default")
+    s = [track.progress_m(*track.point_at(q)[:2]) for q in np.arange(0.0, 280.0, 7.0)]
+    assert np.all(np.diff(s) > 0)
+    assert s[0] == pytest.approx(0.0, abs=1e-6)
+
+
+def test_missing_start_pose_and_repeated_headers(tmp_path: Path) -> None:
+    src = (DATA / "eufs" / "small_track.csv").read_text().splitlines()
+    header, rows = src[0], [r for r in src[1:] if not r.startswith("car_start")]
+    rng = np.random.default_rng(0)
+    rows = [rows[i] for i in rng.permutation(len(rows))]
+    text = "\n".join([header, *rows[:30], header, "", *rows[30:]]) + "\n"
+    path = tmp_path / "shuffled.csv"
+    path.write_text(text)
+    track = load_track(str(path))
+    ref = load_track(str(DATA / "eufs" / "small_track.csv"))
+    assert len(track.cones_xy_m) == len(ref.cones_xy_m)
+    assert track.lap_length_m == pytest.approx(ref.lap_length_m, rel=0.03)
+    # the car is put on the centreline before the start line, facing along the track
+    assert 0.0 < track.start_line_s_m < 10.0
+
+
+@pytest.mark.parametrize("content, message", [
+    ("tag,x,y\nblue,1,oops\n", "not numbers"),
+    ("tag,x,y\npurple,1,2\n", "unknown tag"),
+    ("tag,x,y\n", "no cones"),
+    ("tag,x,y\nblue,0,2\nblue,5,2\nyellow,0,-2\n", "at least"),
+])
+def test_bad_csv_files_give_clear_errors(tmp_path: Path, content: str, message: str) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    with pytest.raises(TrackError, match=message):
+        load_track(str(path))
+
+
+def test_bad_names_and_yaml(tmp_path: Path) -> None:
+    with pytest.raises(TrackError, match="no such file"):
+        load_track("nope.csv")
+    with pytest.raises(TrackError, match="gen:SEED"):
+        load_track("gen:abc")
+    path = tmp_path / "bad.yaml"
+    path.write_text("just: text\n")
+    with pytest.raises(TrackError, match="cones_left"):
+        load_track(str(path))
+    path.write_text("cones_left: [[1, 2, 3], 4]\n")
+    with pytest.raises(TrackError, match="cones_left"):
+        load_track(str(path))
