@@ -6,11 +6,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from planner_closed_loop_helpers import run_closed_loop
 
 from common.config import AppConfig
 from common.messages import AsState
 from planner.speed_profile import min_lap_time_s
-from planner_closed_loop_helpers import run_closed_loop
 from simulator.tracks import load_track
 
 FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_fssim" / "FSG.yaml"
