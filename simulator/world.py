@@ -52,12 +52,14 @@ class SimWorld:
     """The simulated world (see the module docstring).
 
     ``sensors``: names of the sensor models to run (default all of :data:`SENSOR_MODELS` that
-    are enabled in ``config.sim``); ``faults``: fault specs (default ``config.sim.faults``).
+    are enabled in ``config.sim``); ``faults``: fault specs (default ``config.sim.faults``);
+    ``res_go``: whether the remote stop (RES) reports "go" from the start (on the car the
+    person presses go at the handover: :meth:`send_go`).
     """
 
     def __init__(self, config: AppConfig, track: Track, seed: int | None = None,
                  faults: str | Iterable[str | Fault] | None = None,
-                 sensors: Sequence[str] | None = None) -> None:
+                 sensors: Sequence[str] | None = None, res_go: bool = False) -> None:
         self.config = config
         self.track = track
         self.seed = config.sim.seed if seed is None else int(seed)
@@ -101,6 +103,8 @@ class SimWorld:
                         if track.kind == "acceleration" else None)
         self._start_behind_line = self._line is not None and self._line_side(self._line, 0, 0) < 0
         self._res_state: tuple[bool, bool] | None = None
+        self._go = bool(res_go)
+        self._update_res(0.0)
         self._garbage_missing_warned = False
         self._imu_nan_warned = False
 
@@ -110,6 +114,17 @@ class SimWorld:
     def t_s(self) -> float:
         """The simulated time reached (s)."""
         return self._step_index * self.dt_s
+
+    @property
+    def estop_active(self) -> bool:
+        """True while the RES emergency stop is pressed (an ``estop`` fault is active)."""
+        return self._active("estop", self.t_s)
+
+    def send_go(self) -> None:
+        """Press "go" on the remote (RES): its CAN frames report go from now on (unless the
+        emergency stop is pressed)."""
+        self._go = True
+        self._update_res(self.t_s)
 
     def truth(self) -> GroundTruth:
         """The car's true state now."""
@@ -240,18 +255,27 @@ class SimWorld:
     def _active(self, kind: str, t: float) -> bool:
         return any(f.kind == kind and f.active(t) for f in self.faults)
 
+    def _update_res(self, t: float) -> None:
+        """Tell the CAN model the RES state: emergency while an estop fault is active (which
+        also cancels "go": after an emergency the car needs a new go)."""
+        if self._active("estop", t):
+            state = (True, False)
+            self._go = False
+        else:
+            state = (False, self._go)
+        if state == self._res_state:
+            return
+        can = self.models.get("can")
+        if can is not None and hasattr(can, "set_res"):
+            can.set_res(emergency=state[0], go=state[1])
+        if state[0]:
+            log.info("t=%.2f s: RES emergency stop pressed", t)
+        self._res_state = state
+
     def _apply_faults(self, t: float) -> None:
         models = self.models
         can = models.get("can")
-        if any(f.kind == "estop" for f in self.faults):
-            started = any(f.kind == "estop" and t >= f.start_s for f in self.faults)
-            state = (True, False) if self._active("estop", t) else (
-                (False, False) if started else (False, True))
-            if state != self._res_state and can is not None and hasattr(can, "set_res"):
-                can.set_res(emergency=state[0], go=state[1])
-                if state[0]:
-                    log.info("t=%.2f s: fault: RES emergency stop pressed", t)
-            self._res_state = state
+        self._update_res(t)
         gps = models.get("gps")
         if gps is not None and hasattr(gps, "dropout"):
             gps.dropout = self._active("gps-dropout", t)

@@ -182,3 +182,28 @@ def test_can_garbage_adds_unknown_frames() -> None:
     extra = [u for u in dirty if isinstance(u, CanFrame) and u.arbitration_id not in known]
     assert not [u for u in clean if isinstance(u, CanFrame) and u.arbitration_id not in known]
     assert extra and all(0.2 <= u.timestamp_s < 0.7 + 1e-9 for u in extra)
+
+
+def test_res_go_and_estop_active() -> None:
+    from sensors.can_codec import CanCodec
+
+    config = AppConfig()
+    world = SimWorld(config, load_track("default"), seed=4, faults=["estop@1.0"], sensors=["can"])
+    if "can" not in world.models:
+        pytest.skip("CAN model not available")
+    codec = CanCodec()
+
+    def res_states(until_s: float) -> list:
+        out = world.step_to(until_s, ActuatorCommand(world.t_s, 0.0, 0.0, 0.0))
+        return [m for u in out if isinstance(u, CanFrame) for m in codec.decode(u)
+                if type(m).__name__ == "RemoteStop"]
+
+    before = res_states(0.45)
+    assert before and not any(r.go or r.emergency for r in before)
+    assert not world.estop_active
+    world.send_go()
+    after_go = res_states(0.95)
+    assert after_go and all(r.go and not r.emergency for r in after_go)
+    estop = res_states(1.5)
+    assert world.estop_active
+    assert all(r.emergency and not r.go for r in estop if r.timestamp_s >= 1.0)
