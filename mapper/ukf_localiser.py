@@ -250,6 +250,13 @@ class UkfLocaliser:
         mean[IYAW] = wrap_angle(float(mean[IYAW]))
         self.x = mean
         cov[np.diag_indices(N_STATE)] += q
+        if cfg.use_odometry and cfg.odometry_scale_sigma > 0.0:
+            # The tyre radius is known to a fraction: a systematic along-track speed error that
+            # repeated odometry updates cannot average out. Its position effect is spread as an
+            # equivalent random walk along the heading over odometry_scale_time_s.
+            qa = (cfg.odometry_scale_sigma * float(mean[IVX])) ** 2 * cfg.odometry_scale_time_s
+            c, s = math.cos(float(mean[IYAW])), math.sin(float(mean[IYAW]))
+            cov[:2, :2] += qa * dt_s * np.array([[c * c, c * s], [c * s, s * s]])
         self.P = 0.5 * (cov + cov.T)
 
     # -- updates ------------------------------------------------------------------------------
