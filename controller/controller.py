@@ -143,7 +143,7 @@ class Controller:
             brake = 1.0
         elif status.stop == StopKind.CONTROLLED:
             self.longitudinal.reset()
-            brake = self._controlled_stop(now_s, speed)
+            brake = self._controlled_stop(now_s, speed, pose_ok)
             state = self.safety.state
         else:
             if path is None or not pose_ok:  # the supervisor stops the car next tick at latest
@@ -177,18 +177,20 @@ class Controller:
         a_ff = (v_ahead * v_ahead - v_ref * v_ref) / (2.0 * span)
         return self.longitudinal.update(v_ref, speed, a_ff, dt)
 
-    def _controlled_stop(self, now_s: float, speed: float) -> float:
+    def _controlled_stop(self, now_s: float, speed: float, speed_known: bool) -> float:
         """Brake along a speed ramp at the set deceleration; at standstill hand over to the
-        supervisor (FINISHED or EMERGENCY) and hold the brake."""
+        supervisor (FINISHED or EMERGENCY) and hold the brake. Without a speed measurement the
+        car is taken to stand once the ramp has ended plus a second."""
         c = self.config.safety
         if not math.isfinite(self._stop_t0):
             self._stop_t0 = now_s
             self._stop_v0 = max(speed, 0.0)
-        if speed <= c.standstill_speed_mps:
+        ramp_end_s = self._stop_t0 + self._stop_v0 / max(c.stop_decel_mps2, 1e-3)
+        if speed <= c.standstill_speed_mps or (not speed_known and now_s > ramp_end_s + 1.0):
             self.safety.standstill(now_s)
             return self.config.hold_brake
         v_ref = max(self._stop_v0 - c.stop_decel_mps2 * (now_s - self._stop_t0), 0.0)
-        decel = c.stop_decel_mps2 + 2.0 * (speed - v_ref)
+        decel = c.stop_decel_mps2 + (2.0 * (speed - v_ref) if speed_known else 0.0)
         return clip(decel / self.car.max_brake_decel_mps2, 0.1, 1.0)
 
     def _safe_command(self, now_s: float, throttle: float, brake: float, steer: float,

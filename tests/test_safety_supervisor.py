@@ -1,0 +1,166 @@
+"""Safety supervisor: FS AS state machine, emergency and controlled stops, stop reasons."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.config import AppConfig
+from common.messages import (
+    AsState,
+    Baseframe,
+    Health,
+    Plan,
+    PoseEstimate,
+    RemoteStop,
+    SourceHealth,
+    TargetStates,
+)
+from controller.controller import Controller
+from controller.safety import SafetySupervisor, StopKind
+
+
+def straight_plan(t: float, lap: int = 0, speed: float = 10.0) -> Plan:
+    x = np.arange(0.0, 300.0, 0.5)
+    z = np.zeros_like(x)
+    targets = TargetStates(t + x / speed, x, z, z, np.full_like(x, speed), z)
+    frame = Baseframe(x, x, z, z, z, closed=False, length_m=300.0)
+    return Plan(t, frame, targets, speed, lap=lap, chosen_index=0)
+
+
+def pose(t: float, x: float = 10.0, y: float = 0.0, v: float = 10.0,
+         sigma: float = 0.05) -> PoseEstimate:
+    cov = np.diag([sigma**2, sigma**2, 0.01**2])
+    return PoseEstimate(t, x, y, 0.0, v, 0.0, 0.0, cov)
+
+
+def health(t: float, stale: tuple[str, ...] = ()) -> Health:
+    sources = tuple(SourceHealth(t, name, True, 10.0, 0.01, 0, name in stale)
+                    for name in ("gps", "imu", "lidar", "camera"))
+    return Health(t, sources)
+
+
+def driving_controller(config: AppConfig | None = None) -> Controller:
+    config = config or AppConfig()
+    config.controller.laps = 3
+    ctrl = Controller(config)
+    assert ctrl.state == AsState.OFF
+    ctrl.command(0.0, pose(0.0), straight_plan(0.0), health(0.0), None)
+    assert ctrl.state == AsState.READY  # auto-armed by the first plan with a baseframe
+    cmd = ctrl.command(0.01, pose(0.01), straight_plan(0.01), health(0.01), None)
+    assert cmd.brake > 0.0  # brakes held in READY
+    ctrl.command(0.02, pose(0.02), straight_plan(0.02), health(0.02),
+                 RemoteStop(0.02, False, True))
+    assert ctrl.state == AsState.DRIVING
+    return ctrl
+
+
+def test_res_go_starts_and_the_car_drives() -> None:
+    ctrl = driving_controller()
+    cmd = ctrl.command(0.03, pose(0.03, v=5.0), straight_plan(0.03), health(0.03), None)
+    assert cmd.throttle > 0.0 and cmd.brake == 0.0 and cmd.state == AsState.DRIVING
+    assert ctrl.stop_reason == ""
+
+
+def test_remote_emergency_brakes_fully_at_once() -> None:
+    ctrl = driving_controller()
+    cmd = ctrl.command(0.03, pose(0.03), straight_plan(0.03), health(0.03),
+                       RemoteStop(0.03, True, False))
+    assert cmd.brake == 1.0 and cmd.throttle == 0.0
+    assert ctrl.state == AsState.EMERGENCY and cmd.state == AsState.EMERGENCY
+    assert ctrl.stop_reason == "remote emergency stop"
+    assert ctrl.stop_time_s == 0.03 and ctrl.stop_speed_mps == 10.0
+    # latched: a later clean tick still brakes
+    cmd = ctrl.command(0.5, pose(0.5), straight_plan(0.5), health(0.5), None)
+    assert cmd.brake == 1.0 and ctrl.state == AsState.EMERGENCY
+
+
+def test_stale_critical_sensor_is_an_emergency_but_gps_is_not() -> None:
+    ctrl = driving_controller()
+    cmd = ctrl.command(0.03, pose(0.03), straight_plan(0.03), health(0.03, ("gps",)), None)
+    assert ctrl.state == AsState.DRIVING and cmd.brake == 0.0
+    cmd = ctrl.command(0.04, pose(0.04), straight_plan(0.04), health(0.04, ("lidar",)), None)
+    assert cmd.brake == 1.0 and ctrl.state == AsState.EMERGENCY
+    assert ctrl.stop_reason == "stale sensor: lidar"
+
+
+def run_controlled_stop(ctrl: Controller, make_inputs, v0: float = 10.0) -> list[float]:
+    """Feed the controller while a point mass obeys its brake; returns the decelerations."""
+    v, t = v0, 0.03
+    decels = []
+    for _ in range(1000):
+        p, plan, h = make_inputs(t, v)
+        cmd = ctrl.command(t, p, plan, h, None)
+        assert cmd.throttle == 0.0
+        decel = 12.0 * cmd.brake if v > 0 else 0.0
+        v = max(v - decel * 0.01, 0.0)
+        decels.append(decel)
+        t += 0.01
+        if ctrl.state != AsState.DRIVING:
+            break
+    return decels
+
+
+@pytest.mark.parametrize(
+    "fault, reason",
+    [
+        ("old_plan", "plan too old"),
+        ("uncertain", "pose uncertain"),
+        ("corridor", "left the track corridor"),
+        ("nan", "non-finite pose"),
+    ],
+)
+def test_faults_lead_to_a_controlled_stop_then_emergency(fault: str, reason: str) -> None:
+    ctrl = driving_controller()
+    fresh = straight_plan(-0.5)  # already older than the timeout
+
+    def inputs(t: float, v: float):
+        if fault == "old_plan":
+            return pose(t, v=v), fresh, health(t)  # never refreshed
+        if fault == "uncertain":
+            return pose(t, v=v, sigma=2.0), straight_plan(t), health(t)
+        if fault == "corridor":
+            return pose(t, y=4.0, v=v), straight_plan(t), health(t)
+        return PoseEstimate(t, math.nan, 0.0, 0.0, v), straight_plan(t), health(t)
+
+    decels = run_controlled_stop(ctrl, inputs)
+    assert ctrl.stop_reason.startswith(reason)
+    assert ctrl.state == AsState.EMERGENCY
+    stop_decel = AppConfig().controller.safety.stop_decel_mps2
+    braking = [d for d in decels[:-1] if d > 0.0]
+    assert 0.8 * stop_decel < np.mean(braking) < 1.3 * stop_decel  # controlled, not full
+
+
+def test_lap_count_reached_finishes_at_standstill() -> None:
+    ctrl = driving_controller()
+    decels = run_controlled_stop(ctrl, lambda t, v: (pose(t, v=v), straight_plan(t, lap=3),
+                                                     health(t)))
+    assert ctrl.state == AsState.FINISHED
+    assert ctrl.stop_reason == "finished: 3 laps"
+    assert max(decels[:-2]) < 12.0
+    cmd = ctrl.command(20.0, pose(20.0, v=0.0), straight_plan(20.0, lap=3), health(20.0), None)
+    assert cmd.brake > 0.0 and cmd.state == AsState.FINISHED
+
+
+def test_illegal_transitions_are_refused() -> None:
+    sup = SafetySupervisor(AppConfig().controller.safety, laps=1)
+    assert not sup.transition(0.0, AsState.DRIVING)  # OFF -> DRIVING skips READY
+    assert not sup.go(0.0)
+    assert sup.arm(0.0) and sup.go(0.1)
+    assert not sup.transition(0.2, AsState.READY)  # no way back from DRIVING
+    sup.request_stop(0.3, StopKind.CONTROLLED, "finished: 1 laps")
+    sup.request_stop(0.4, StopKind.CONTROLLED, "something else")
+    assert sup.stop_reason == "finished: 1 laps"  # the first reason latches
+    sup.standstill(1.0)
+    assert sup.state == AsState.FINISHED
+    assert not sup.transition(1.1, AsState.DRIVING)
+
+
+def test_no_go_while_a_critical_sensor_is_stale() -> None:
+    ctrl = Controller(AppConfig())
+    ctrl.command(0.0, pose(0.0), straight_plan(0.0), health(0.0), None)
+    ctrl.command(0.01, pose(0.01), straight_plan(0.01), health(0.01, ("imu",)),
+                 RemoteStop(0.01, False, True))
+    assert ctrl.state == AsState.READY
