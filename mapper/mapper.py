@@ -320,8 +320,9 @@ class Mapper:
         if recent and not self.ukf.calibrating:
             pred, t = predict_forward(state, t_lag, recent, self.ukf.gyro_bias_radps,
                                       self.ukf.accel_bias_mps2, self.config.car.imu_x_m)
-        else:
-            pred, t = np.asarray(state, np.float64), t_lag
+        else:  # standing still (calibrating) or nothing newer: the lagged state holds
+            pred = np.asarray(state, np.float64)
+            t = max(t_lag, recent[-1].timestamp_s) if recent else t_lag
         pose = PoseEstimate(t, float(pred[0]), float(pred[1]), float(pred[2]), float(pred[3]),
                             float(pred[4]), float(pred[5]), np.asarray(cov, np.float64).copy())
         return MapState(t, pose, self._cones(), loop_closed=self.loop_closed,

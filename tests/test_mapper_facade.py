@@ -1,0 +1,126 @@
+"""The Mapper facade: types, timing (delay buffer), loop closure and freezing, both backends."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.config import AppConfig
+from common.conventions import WorldFrame
+from common.messages import (
+    CameraCones,
+    ConeDetection,
+    ConeMap,
+    ImuSample,
+    LidarCones,
+    MapState,
+    PoseEstimate,
+    RemoteStop,
+)
+from mapper.evaluation import evaluate_map
+from mapper.fusion import DelayBuffer
+from mapper.mapper import Mapper
+from mapper.synthetic import make_drive
+
+
+def _run(backend: str, seconds: float, seed: int = 2) -> tuple[Mapper, MapState, float]:
+    cfg = AppConfig()
+    cfg.mapper.backend = backend  # type: ignore[assignment]
+    cfg.mapper.ukf.start_heading_known = True  # dual antenna: the frame is known after 10 fixes
+    cfg.sim.start_heading_enu_rad = 0.7
+    drive = make_drive("loop", seed=seed, standstill_s=1.0, start_heading_enu_rad=0.7)
+    mapper = Mapper(cfg)
+    state = mapper.state()
+    worst_lag = 0.0
+    for now, batch in drive.batches(100.0):
+        if now > seconds:
+            break
+        state = mapper.update(batch + [RemoteStop(now, False, True)], now)
+        if now > 0.5:
+            worst_lag = max(worst_lag, now - state.pose.timestamp_s)
+        tx, ty, _ = drive.truth.at(state.pose.timestamp_s)
+        assert math.hypot(state.pose.x_m - tx, state.pose.y_m - ty) < 0.5
+    return mapper, state, worst_lag
+
+
+@pytest.mark.parametrize("backend", ["smoother", "slam"])
+def test_facade_types_for_both_backends(backend: str) -> None:
+    mapper, state, worst_lag = _run(backend, 6.0)
+    assert isinstance(state, MapState)
+    assert isinstance(state.pose, PoseEstimate)
+    assert isinstance(state.cones, ConeMap)
+    assert state.backend == backend
+    assert not state.map_frozen
+    assert len(state.cones) > 5
+    assert state.pose.covariance.shape == (3, 3)
+    assert worst_lag <= 0.011  # the pose handed out is current: predicted up to the last IMU
+    assert isinstance(mapper.world_frame, WorldFrame)
+    assert mapper.world_frame.start_yaw_enu_rad == pytest.approx(0.7)
+    stats = mapper.stats
+    assert stats["odometry"]["applied"] > 100
+    # 100 ms late camera frames are applied in order; only the very first one, before the
+    # camera was ever heard from, can find the filter already past its time.
+    assert stats.get("camera", {}).get("late", 0) <= 1
+
+
+def test_smoother_lap_closes_freezes_and_localises_on_the_map() -> None:
+    cfg = AppConfig()
+    cfg.mapper.backend = "smoother"
+    drive = make_drive("loop", seed=4, start_heading_enu_rad=-2.0)
+    mapper = Mapper(cfg)
+    frozen_at = None
+    state = mapper.state()
+    for now, batch in drive.batches(100.0):
+        state = mapper.update(batch, now)
+        if state.map_frozen and frozen_at is None:
+            frozen_at = now
+    assert state.map_frozen and state.loop_closed and frozen_at is not None
+    assert mapper.world_frame is not None  # estimated from the GNSS course
+    assert abs(mapper.world_frame.start_yaw_enu_rad - (-2.0)) < 0.01
+    result = evaluate_map(state.cones, drive.cones_xy_m, drive.cone_colours)
+    assert result["false_landmarks"] <= 1
+    assert result["matched"] >= 0.98 * len(drive.cones_xy_m)
+    assert result["colour_accuracy"] >= 0.98
+    tx, ty, _ = drive.truth.at(state.pose.timestamp_s)
+    assert math.hypot(state.pose.x_m - tx, state.pose.y_m - ty) < 0.3
+
+
+def test_delay_buffer_releases_in_measurement_order() -> None:
+    buf = DelayBuffer(max_delay_s=0.3)
+    imu = [ImuSample(0.005 * k, 0, 0, 9.81, 0, 0, 0) for k in range(1, 41)]
+    for s in imu[:30]:
+        buf.push("imu", s, s.timestamp_s)
+    cam = CameraCones(0.05, (ConeDetection(0.05, 5.0, 1.0),))
+    buf.push("camera", cam, 0.15)  # made at 0.05 s, arrives at 0.15 s
+    lidar = LidarCones(0.12, ())
+    buf.push("lidar", lidar, 0.15)
+    out = buf.pop_ready(0.15)
+    times = [r.timestamp_s for _, r in out]
+    assert times == sorted(times)
+    assert times[-1] <= 0.05 + 1e-12  # the camera holds the horizon back
+    assert any(isinstance(r, CameraCones) for _, r in out)
+    # a camera frame older than what was released is late: counted, dropped
+    assert not buf.push("camera", CameraCones(0.01, ()), 0.16)
+    assert buf.late["camera"] == 1
+    # a source silent for longer than max_delay_s no longer holds the filter back
+    for s in imu[30:]:
+        buf.push("imu", s, s.timestamp_s + 0.3)
+    rest = buf.pop_ready(0.5)
+    assert np.isclose(rest[-1][1].timestamp_s, imu[-1].timestamp_s)
+
+
+def test_freeze_with_a_known_map_uses_cone_updates() -> None:
+    cfg = AppConfig()
+    cfg.mapper.backend = "smoother"
+    drive = make_drive("loop", seed=5, standstill_s=1.0)
+    mapper = Mapper(cfg)
+    mapper.freeze(drive.cone_map())
+    for now, batch in drive.batches(100.0):
+        if now > 8.0:
+            break
+        state = mapper.update(batch, now)
+    assert state.map_frozen
+    assert len(state.cones) == len(drive.cones_xy_m)
+    assert mapper.stats["cones"]["applied"] > 100
