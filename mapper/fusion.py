@@ -12,10 +12,11 @@ frame is the start pose, so its heading in ENU is needed. Either it is known (a 
 magnetometer or a surveyed start: ``UkfConfig.start_heading_known`` takes
 ``config.sim.start_heading_enu_rad``) or it is estimated, by default from the GNSS course over
 ground against the filter's own course (gyro-integrated yaw plus slip angle) once moving above
-``gnss_min_speed_mps``, averaged over ``heading_estimate_samples`` fixes; without courses (a
-GGA-only receiver) by aligning the GNSS track with the filter's over the first
+``gnss_min_speed_mps``, averaged (weights speed squared) over ``heading_estimate_samples`` fixes;
+without courses (a GGA-only receiver) by aligning the GNSS track with the filter's over the first
 ``track_alignment_distance_m`` (2-D Procrustes). The start position in ENU is then the mean over
-the collected fixes of ``fix - R(heading) p_filter``.
+the collected fixes of ``fix - R(heading) p_filter``. The first fix of a source never heard
+before may find the lagged filter already past its time: it is counted as late and dropped.
 """
 
 from __future__ import annotations
