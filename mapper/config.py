@@ -135,9 +135,9 @@ class FusionConfig:
 class SlamConfig:
     """Seed 000, section 5.3: EKF SLAM with controlled loop closure (see mapper/ekf_slam.py)."""
 
-    gyro_noise_density_radps_rthz: float = 2.0e-3
+    gyro_noise_density_radps_rthz: float = 3.0e-4
     """Gyro white noise (rad/s/sqrt(Hz)), with model error; Q = G diag(sigma^2 / T) G^T."""
-    accel_noise_density_mps2_rthz: float = 0.05
+    accel_noise_density_mps2_rthz: float = 0.01
     """Accelerometer white noise (m/s^2/sqrt(Hz)), with pitch/roll leakage and vibration."""
     heading_mode: Literal["midpoint", "seed"] = "midpoint"
     """Eq. 5.2: 'seed' uses alpha = theta + T^2/2 * yaw rate literally; 'midpoint' uses T/2."""
@@ -146,12 +146,12 @@ class SlamConfig:
     max_predict_dt_s: float = 0.1
     initial_position_sigma_m: float = 1.0e-3
     initial_yaw_sigma_rad: float = 1.0e-3
-    initial_velocity_sigma_mps: float = 0.2
+    initial_velocity_sigma_mps: float = 0.05
     lidar_range_sigma_m: float = 0.02
-    lidar_bearing_sigma_rad: float = 0.002
+    lidar_bearing_sigma_rad: float = 0.001
     measurement_sigma_floor_m: float = 0.01
     """Seed 5.3.5: no measurement noise below this (keeps S well conditioned)."""
-    motion_compensation_sigma_mps: float = 0.2
+    motion_compensation_sigma_mps: float = 0.05
     """Velocity uncertainty when a detection is moved to its sweep's timestamp (adds noise)."""
     max_range_m: float = 25.0
     gate_probability: float = 0.997

@@ -500,10 +500,13 @@ class EkfSlam:
             yaw, vxw, vyw = self._xbuf[2], self._xbuf[3], self._xbuf[4]
             cy, sy = math.cos(yaw), math.sin(yaw)
             vb = np.array([cy * vxw + sy * vyw, -sy * vxw + cy * vyw])
+            # z_T = R(-w dt) z_i - R(-w dt / 2) v_body dt (the car moved along an arc).
             ang = self._input[0] * dt
-            q = z - dt[:, None] * vb
             ca, sa = np.cos(ang), np.sin(ang)
-            z = np.stack([ca * q[:, 0] + sa * q[:, 1], -sa * q[:, 0] + ca * q[:, 1]], axis=1)
+            ch, sh = np.cos(0.5 * ang), np.sin(0.5 * ang)
+            z = np.stack([ca * z[:, 0] + sa * z[:, 1] - dt * (ch * vb[0] + sh * vb[1]),
+                          -sa * z[:, 0] + ca * z[:, 1] - dt * (-sh * vb[0] + ch * vb[1])],
+                         axis=1)
         r_all = self._measurement_noise(z, extra)
 
         n_det = z.shape[0]
@@ -634,9 +637,9 @@ class EkfSlam:
         self._first_seen_m = np.concatenate([self._first_seen_m, now])
         self._last_seen_m = np.concatenate([self._last_seen_m, now])
         votes_s = np.zeros((a, _N_SIZES))
-        votes_s[np.arange(a), sizes] = 2.0
+        votes_s[np.arange(a), sizes] = 1.0
         votes_c = np.zeros((a, _N_COLOURS))
-        votes_c[np.arange(a), colours] = 2.0
+        votes_c[np.arange(a), colours] = 1.0
         self._size_votes = np.concatenate([self._size_votes, votes_s])
         self._colour_votes = np.concatenate([self._colour_votes, votes_c])
         self.stats["landmarks_added"] += a
@@ -705,9 +708,14 @@ class EkfSlam:
         return out.astype(np.int64)
 
     def _big_mask(self) -> NDArray[np.bool_]:
-        """Landmarks that are big orange cones (size LARGE or colour BIG_ORANGE by vote)."""
-        return (self._sizes() == int(ConeSize.LARGE)) | (
-            self._colours() == int(ConeColour.BIG_ORANGE))
+        """Landmarks that are big orange cones: size LARGE or colour BIG_ORANGE by vote, with
+        at least ``min_big_cone_votes`` votes for it."""
+        n = self.cfg.min_big_cone_votes
+        large = (self._sizes() == int(ConeSize.LARGE)) & (
+            self._size_votes[:, int(ConeSize.LARGE)] >= n)
+        orange = (self._colours() == int(ConeColour.BIG_ORANGE)) & (
+            self._colour_votes[:, int(ConeColour.BIG_ORANGE)] >= n)
+        return large | orange
 
     # ----------------------------------------------------------------------------------------
     # Loop closure
@@ -738,10 +746,10 @@ class EkfSlam:
             ahead = ((lm[old] - self._xbuf[:2]) @ np.array([math.cos(yaw), math.sin(yaw)]))
             if np.any(ahead > 0.0):
                 return False
-        pairs = self._match_pattern(lm[old], lm[new])
+        pairs = self._match_pattern(old, new)
         if pairs is None:
             return False
-        old_idx, new_idx = old[pairs[0]], new[pairs[1]]
+        old_idx, new_idx = pairs
         self._merge(old_idx, new_idx)
         self.loop_closed = True
         self.loop_closure_odometer_m = self.odometer_m
@@ -752,20 +760,33 @@ class EkfSlam:
         self.stats["loop_closures"] += 1
         return True
 
-    def _match_pattern(self, old_xy: FloatArray, new_xy: FloatArray
+    def _match_pattern(self, old: NDArray[np.int64], new: NDArray[np.int64]
                        ) -> tuple[NDArray[np.int64], NDArray[np.int64]] | None:
-        """Pair new with old big cones under one common translation (the drift).
+        """Pair new with old big cones (landmark indices) under one common translation (drift).
 
-        Each old-new pair within ``big_cone_search_m`` proposes a translation; the one with the
-        most cones consistent within ``big_cone_pattern_tolerance_m`` wins, ties broken by the
-        smaller residual and then the smaller translation. Returns index arrays (old, new).
+        Each old-new pair within ``big_cone_search_m`` proposes a translation; it must be
+        plausible under the filter's own uncertainty of that pair's difference (inflated by
+        ``closure_covariance_inflation``, gated at ``merge_gate_probability``). The hypothesis
+        with the most cones consistent within ``big_cone_pattern_tolerance_m`` wins, ties broken
+        by the smaller Mahalanobis drift (the big cones' pattern repeats at a few metres, the
+        drift is expected smaller). Returns landmark index arrays (old, new).
         """
         c = self.cfg
+        lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+        old_xy, new_xy = lm[old], lm[new]
+        p = self.P
         best: tuple[int, float, NDArray[np.int64], NDArray[np.int64]] | None = None
-        for i in range(old_xy.shape[0]):
-            for j in range(new_xy.shape[0]):
+        for i in range(old.size):
+            for j in range(new.size):
                 t = old_xy[i] - new_xy[j]
                 if math.hypot(*t) > c.big_cone_search_m:
+                    continue
+                ci, cj = POSE_DIM + 2 * int(old[i]), POSE_DIM + 2 * int(new[j])
+                cov = (p[ci:ci + 2, ci:ci + 2] + p[cj:cj + 2, cj:cj + 2]
+                       - p[ci:ci + 2, cj:cj + 2] - p[cj:cj + 2, ci:ci + 2])
+                cov = cov * c.closure_covariance_inflation + np.eye(2) * 1e-4
+                d2 = float(t @ np.linalg.solve(cov, t))
+                if d2 > self._merge_gate:
                     continue
                 shifted = new_xy + t
                 d = np.hypot(shifted[:, None, 0] - old_xy[None, :, 0],
@@ -774,9 +795,8 @@ class EkfSlam:
                 rows, cols = linear_sum_assignment(cost)
                 good = cost[rows, cols] < _BIG
                 count = int(np.count_nonzero(good))
-                score = float(np.sum(cost[rows[good], cols[good]])) + 1e-3 * math.hypot(*t)
-                if best is None or count > best[0] or (count == best[0] and score < best[1]):
-                    best = (count, score, cols[good], rows[good])
+                if best is None or count > best[0] or (count == best[0] and d2 < best[1]):
+                    best = (count, d2, old[cols[good]], new[rows[good]])
         if best is None or best[0] < c.min_big_cone_pairs:
             return None
         return best[2], best[3]

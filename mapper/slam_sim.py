@@ -68,8 +68,8 @@ class SimSettings:
     """Driven past the end of the lap (to see the big orange cones again)."""
     physics_rate_hz: float = 1000.0
     imu_rate_hz: float = 200.0
-    gyro_noise_density_radps_rthz: float = 1.0e-3
-    accel_noise_density_mps2_rthz: float = 0.02
+    gyro_noise_density_radps_rthz: float = 2.5e-4
+    accel_noise_density_mps2_rthz: float = 5.0e-3
     wheel_rate_hz: float = 100.0
     wheel_sigma_mps: float = 0.03
     gps_rate_hz: float = 10.0
@@ -78,7 +78,7 @@ class SimSettings:
     lidar_range_m: float = 12.0
     lidar_fov_deg: float = 100.0
     lidar_range_sigma_m: float = 0.02
-    lidar_bearing_sigma_rad: float = 0.002
+    lidar_bearing_sigma_rad: float = 0.001
     miss_probability: float = 0.10
     false_rate: float = 0.05
     size_error_probability: float = 0.02
