@@ -148,6 +148,11 @@ class LidarModel:
         k_end = int(math.floor((t_s + 1e-9) / PACKET_DURATION_S)) - 1  # last complete packet
         if k_end < self._next_k:
             return []
+        if self.dead:  # nothing is cast or sent while the sensor is dead
+            self._pending.clear()
+            self._next_gen = max(self._next_gen, k_end + 1)
+            self._next_k = k_end + 1
+            return []
         if k_end >= self._next_gen:
             k_gen = max(k_end, int(math.floor((t_s + self.lookahead_s) / PACKET_DURATION_S)))
             ks = np.arange(max(self._next_gen, self._next_k), k_gen + 1)
