@@ -30,6 +30,7 @@ correction, :data:`LASER_VERTICAL_OFFSET_M`), added to z as the manual (and velo
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -92,6 +93,7 @@ _SINGLE_SPAN_S = np.float32(_RETURN_TIME_S[BLOCKS_PER_PACKET - 1, 0] - _RETURN_T
 _DUAL_SPAN_S = np.float32(_RETURN_TIME_S[(BLOCKS_PER_PACKET - 1) // 2, 0] - _RETURN_TIME_S[0, 0])
 _RETURN = np.dtype({"names": ["d", "r"], "formats": ["<u2", "u1"], "offsets": [0, 2],
                     "itemsize": 3})
+_BLOCK_AZIMUTHS = struct.Struct("<" + "2xH96x" * BLOCKS_PER_PACKET)
 _COS_AZ = np.cos(np.radians(np.arange(36000) * 0.01))
 _SIN_AZ = np.sin(np.radians(np.arange(36000) * 0.01))
 _COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
@@ -122,9 +124,9 @@ def check_packet(payload: bytes) -> None:
                           f"expected {PACKET_SIZE}")
     if payload[0:1200:100] != b"\xff" * 12 or payload[1:1200:100] != b"\xee" * 12:
         raise DecodeError("bad_flag: a data block does not start with 0xFFEE")
-    azimuths = np.frombuffer(payload, dtype="<u2", count=600)[1:600:50]
-    if int(azimuths.max()) >= 36000:
-        raise DecodeError(f"bad_azimuth: block azimuth {int(azimuths.max())} >= 36000")
+    top = max(_BLOCK_AZIMUTHS.unpack_from(payload))
+    if top >= 36000:
+        raise DecodeError(f"bad_azimuth: block azimuth {top} >= 36000")
 
 
 def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedPackets:
@@ -332,12 +334,16 @@ class SweepAssembler:
         points, rings = dec.points, dec.rings
         carry_next = None
         if split_from is not None and payloads:
-            rel = (np.round(dec.azimuth_deg * 100.0).astype(np.int64) - self.cut_hundredths)
-            rel %= 36000
-            nxt = (dec.packet_index == len(payloads) - 1) & (rel < split_from)
-            carry_next = (points[nxt], times[nxt], rings[nxt])
-            keep = ~nxt
-            points, times, rings = points[keep], times[keep], rings[keep]
+            # only the last packet's returns can lie past the cut
+            tail = int(np.searchsorted(dec.packet_index, len(payloads) - 1))
+            rel = (np.round(dec.azimuth_deg[tail:] * 100.0).astype(np.int64)
+                   - self.cut_hundredths) % 36000
+            nxt = rel < split_from
+            if nxt.any():
+                keep = np.ones(points.shape[0], dtype=bool)
+                keep[tail:] = ~nxt
+                carry_next = (points[tail:][nxt], times[tail:][nxt], rings[tail:][nxt])
+                points, times, rings = points[keep], times[keep], rings[keep]
         if self._carry is not None:
             cp, ct, cr = self._carry
             points = np.concatenate([cp, points])
