@@ -140,3 +140,42 @@ def test_sweep_assembler_cuts_at_azimuth_and_keeps_every_return() -> None:
             ring0 = az[s.rings == 0]
             assert np.all(np.diff(ring0) > -1.0)
             assert np.all(np.diff(s.times_s) >= -1e-6)
+
+
+def test_simulated_packets_over_udp_loopback_give_cones() -> None:
+    """Simulated packets sent over UDP on loopback, received and parsed into cones."""
+    import socket
+    from types import SimpleNamespace
+
+    from common.config import AppConfig
+    from common.messages import GroundTruth
+    from simulator.lidar_model import LidarModel
+
+    config = AppConfig()
+    model = LidarModel(config, np.random.default_rng(9))
+    track = SimpleNamespace(cones_xy_m=np.array([[6.0, 1.5], [6.0, -1.5], [9.0, 1.5]]),
+                            sizes=np.array([1, 1, 2]))
+    raws = []
+    for i in range(1, 51):
+        t = i * 0.005
+        raws.extend(model.poll(t, GroundTruth(t, 0, 0, 0, 0, 0, 0), None, track))
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
+    rx.bind(("127.0.0.1", 0))
+    rx.settimeout(2.0)
+    parser = LidarParser(config)
+    out = []
+    try:
+        for raw in raws:
+            tx.sendto(raw.payload, rx.getsockname())
+            data, _ = rx.recvfrom(2048)
+            out.extend(parser.feed(raw.timestamp_s, data))
+    finally:
+        rx.close()
+        tx.close()
+    out.extend(parser.flush())
+    assert parser.rejects == {}
+    full = out[1] if len(out) > 1 else out[0]
+    found = sorted((round(c.x_m), round(c.y_m, 1)) for c in full.cones)
+    assert found == [(6, -1.5), (6, 1.5), (9, 1.5)]
