@@ -148,9 +148,7 @@ class ConeDetector:
         cy = np.bincount(pcone, py, n_cones) / npts
 
         # --- cluster filter
-        dx = cx[:, None] - cx[None, :]
-        dy = cy[:, None] - cy[None, :]
-        neighbours = ((dx * dx + dy * dy) < cfg.cluster_radius_m**2).sum(axis=1)
+        neighbours = _neighbour_counts(cx, cy, cfg.cluster_radius_m)
         clustered = neighbours > cfg.cluster_max_cones
         self.stats["preliminary"] = n_cones
         self.stats["clustered"] = int(clustered.sum())
@@ -218,6 +216,15 @@ def _components(x: NDArray[np.float64], y: NDArray[np.float64], dist_m: float
                 ) -> NDArray[np.int64]:
     """Connected components of points closer than ``dist_m`` (labels 0..K-1), (N,)."""
     n = x.size
+    if n > 256:  # many surfaces (vegetation, barriers): a k-d tree instead of a dense matrix
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+        from scipy.spatial import cKDTree
+
+        pairs = cKDTree(np.c_[x, y]).query_pairs(dist_m, output_type="ndarray")
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, labels = connected_components(graph, directed=False)
+        return labels.astype(np.int64)
     dx = x[:, None] - x[None, :]
     dy = y[:, None] - y[None, :]
     adj = (dx * dx + dy * dy) < dist_m * dist_m
@@ -232,3 +239,17 @@ def _components(x: NDArray[np.float64], y: NDArray[np.float64], dist_m: float
         label = new
     _, dense = np.unique(label, return_inverse=True)
     return dense.astype(np.int64)
+
+
+def _neighbour_counts(x: NDArray[np.float64], y: NDArray[np.float64], radius_m: float
+                      ) -> NDArray[np.int64]:
+    """How many points (itself included) lie within ``radius_m`` of each point, (N,)."""
+    if x.size > 256:
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(np.c_[x, y])
+        return np.asarray(tree.query_ball_point(np.c_[x, y], radius_m, return_length=True),
+                          dtype=np.int64)
+    dx = x[:, None] - x[None, :]
+    dy = y[:, None] - y[None, :]
+    return ((dx * dx + dy * dy) < radius_m**2).sum(axis=1).astype(np.int64)
