@@ -60,11 +60,17 @@ class ControllerConfig:
     steering_law: Literal["pure_pursuit", "stanley", "heading_p"] = "pure_pursuit"
     lookahead_min_m: float = 3.0
     lookahead_max_m: float = 12.0
-    lookahead_time_s: float = 0.35
+    lookahead_time_s: float = 0.45
     lookahead_base_m: float = 2.0
     heading_kp: float = 0.6
     stanley_k: float = 1.5
     stanley_soft_mps: float = 1.0
+    understeer_gradient_rad_per_mps2: float = 0.0028
+    """Extra steering per lateral acceleration (rad per m/s^2) for a car that understeers:
+    the command is atan(L kappa) + K v^2 kappa. 0.0028 fits the simulated default car's
+    steady-state yaw response (and is typical of a small formula car)."""
+    steer_along_course: bool = True
+    """Steer relative to the direction of travel (yaw + sideslip atan(vy/vx)) rather than yaw."""
     max_steer_rate_radps: float = 3.0
     """Steering rate limit (the car's own limit applies too, whichever is lower)."""
     hold_brake: float = 1.0

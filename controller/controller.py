@@ -127,8 +127,15 @@ class Controller:
         steer_target: float | None = None
         if pose_ok and path is not None:
             assert pose is not None
-            steer_target = self.steering_law.update(pose.x_m, pose.y_m, pose.yaw_rad, speed, path)
-            if not math.isfinite(steer_target):
+            yaw = pose.yaw_rad
+            if cfg.steer_along_course and math.isfinite(pose.vy_mps) and speed > 1.0:
+                yaw += math.atan2(pose.vy_mps, speed)
+            steer_target = self.steering_law.update(pose.x_m, pose.y_m, yaw, speed, path)
+            if math.isfinite(steer_target):
+                # understeer: more steering per curvature as the lateral acceleration grows
+                kappa = math.tan(steer_target) / self.car.wheelbase_m
+                steer_target += cfg.understeer_gradient_rad_per_mps2 * speed * speed * kappa
+            else:
                 steer_target = None
         throttle, brake = 0.0, 0.0
         state = status.state

@@ -54,7 +54,9 @@ class PlannerConfig:
     cone_clearance_near_m: float = 0.15
     """Margin at the car's own position (it is already there): about a cone's base radius."""
     clearance_ramp_m: float = 4.0
-    """The margin grows from the near to the full value over this distance along a candidate."""
+    """The margin grows from the near to the full value over this distance along a candidate
+    (or over the distance driven in ``clearance_ramp_time_s``, whichever is longer)."""
+    clearance_ramp_time_s: float = 0.6
     curvature_limit_fraction: float = 0.9
     """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
     weight_curvature: float = 2.0
@@ -66,7 +68,7 @@ class PlannerConfig:
 
     # Speed profile
     speed_mode: Literal["profile", "two_level"] = "profile"
-    friction_safety_factor: float = 0.85
+    friction_safety_factor: float = 0.7
     """Fraction of the car's lateral, drive and brake limits the profile plans with."""
     max_speed_mps: float = 25.0
     two_level_fast_mps: float = 8.0

@@ -122,7 +122,8 @@ class ManoeuvreGenerator:
             s = s0_m + u
             xy = frame.frenet_to_xy(s, d)
             heading, kappa = _path_geometry(xy)
-            cands.append(self._grade(off, s, d, xy, heading, kappa, in_h, tree, last_offset_m))
+            cands.append(self._grade(off, s, d, xy, heading, kappa, in_h, tree, last_offset_m,
+                                     speed_mps))
         feasible = [i for i, cand in enumerate(cands) if cand.feasible]
         if feasible:
             return cands, min(feasible, key=lambda i: cands[i].cost)
@@ -144,6 +145,7 @@ class ManoeuvreGenerator:
         in_h: NDArray[np.bool_],
         tree: cKDTree | None,
         last_offset_m: float | None,
+        speed_mps: float = 0.0,
     ) -> Candidate:
         c = self.config
         reason = ""
@@ -163,8 +165,9 @@ class ManoeuvreGenerator:
             clearance = float(np.min(gap))
             # full margin from ramp_m on; where the car is now only contact counts (it is there)
             u = s - s[0]
+            ramp = max(c.clearance_ramp_m, abs(speed_mps) * c.clearance_ramp_time_s, 1e-6)
             margin = c.cone_clearance_near_m + (c.cone_clearance_m - c.cone_clearance_near_m) \
-                * np.clip(u / max(c.clearance_ramp_m, 1e-6), 0.0, 1.0)
+                * np.clip(u / ramp, 0.0, 1.0)
             slack = gap - margin
             i = int(np.argmin(slack))
             if slack[i] < 0.0:

@@ -248,20 +248,15 @@ class PathPlanner:
         """Discretise a candidate into timed target states with friction-limited speeds."""
         s = cand.s_m
         ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
-        if stop:
-            v_lim = np.zeros(len(s))
-            v_lim[0] = math.inf
-        else:
-            v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
-                                                                          self.limits))
-        v_end = float(min(v_lim[-1], self.speed_at(s[-1:])[0])) if not stop else 0.0
+        v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
+                                                                      self.limits))
+        # a stop: brake (within the limits) to stand at the end of the candidate
+        v_end = 0.0 if stop else float(v_lim[-1])
         # backward pass: every target can be reached with the (safety-scaled) brakes
         v = v_lim.copy()
         v[-1] = min(v[-1], v_end)
         for i in range(len(v) - 2, -1, -1):
             v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * self.limits.brake_mps2 * ds[i]))
-        if stop:
-            v[0] = v[1] if len(v) > 1 else 0.0
         v = np.maximum(v, 0.0)
         if not stop:
             v = np.maximum(v, min(self.config.min_plan_speed_mps, float(v_lim.min())))

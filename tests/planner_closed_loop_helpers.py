@@ -93,20 +93,44 @@ class LoopResult:
     time_s: float
 
 
+class DynamicAdapter:
+    """simulator.vehicle.Vehicle behind the Bicycle's interface (x_m, y_m, yaw_rad, v_mps)."""
+
+    def __init__(self, config: AppConfig) -> None:
+        from simulator.vehicle import Vehicle
+
+        self.vehicle = Vehicle(config.car)
+        self.lateral_peak_mps2 = 0.0
+
+    def __getattr__(self, name: str) -> float:
+        st = self.__dict__["vehicle"].state
+        return {"x_m": st.x_m, "y_m": st.y_m, "yaw_rad": st.yaw_rad, "v_mps": st.vx_mps,
+                "vy_mps": st.vy_mps, "yaw_rate": st.yaw_rate_radps}[name]
+
+    def step(self, cmd: ActuatorCommand, dt: float) -> None:
+        self.vehicle.step(cmd, dt)
+        self.lateral_peak_mps2 = max(self.lateral_peak_mps2, abs(self.vehicle.state.ay_mps2))
+
+    def footprint(self, length_m: float, width_m: float, rear_m: float) -> np.ndarray:
+        return self.vehicle.footprint_xy_m()
+
+
 def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 200.0,
-                    explore_waypoints: bool = False) -> LoopResult:
-    """Drive ``laps`` autonomous laps of a simulator Track with perfect pose and a known map."""
+                    explore_waypoints: bool = False, dynamic: bool = False) -> LoopResult:
+    """Drive ``laps`` autonomous laps of a simulator Track with perfect pose and a known map
+    (``dynamic``: the simulator's vehicle model instead of the kinematic bicycle)."""
     config.controller.laps = laps
     config.controller.safety.auto_go = True
     planner = PathPlanner(config)
     controller = Controller(config)
-    car = bicycle_for(config)
+    car: Bicycle | DynamicAdapter = DynamicAdapter(config) if dynamic else bicycle_for(config)
     cones = cone_map(track.cones_xy_m, track.colours)
     dt = 1.0 / config.controller.rate_hz
     plan_every = max(int(round(config.controller.rate_hz / config.planner.rate_hz)), 1)
 
     def state(t: float) -> MapState:
-        pose = PoseEstimate(t, car.x_m, car.y_m, car.yaw_rad, car.v_mps, 0.0, 0.0,
+        vy = car.vy_mps if isinstance(car, DynamicAdapter) else 0.0
+        pose = PoseEstimate(t, car.x_m, car.y_m, car.yaw_rad, car.v_mps, vy, 0.0,
                             np.eye(3) * 1e-4)
         return MapState(t, pose, cones, loop_closed=True)
 

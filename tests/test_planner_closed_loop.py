@@ -1,5 +1,5 @@
 """Closed loop with perfect pose: planner + controller drive laps of FSG with no cone hit, near
-the friction-limited minimum lap time (a kinematic bicycle stands in for the vehicle)."""
+the friction-limited minimum lap time, on a kinematic bicycle and on simulator/vehicle.py."""
 
 from __future__ import annotations
 
@@ -17,10 +17,11 @@ FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_
 
 
 @pytest.mark.skipif(not FSG.exists(), reason="shared data not present")
-def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time() -> None:
+@pytest.mark.parametrize("dynamic", [False, True], ids=["kinematic", "vehicle_model"])
+def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time(dynamic: bool) -> None:
     config = AppConfig()
     track = load_track(str(FSG))
-    result = run_closed_loop(config, track, laps=2, max_time_s=90.0)
+    result = run_closed_loop(config, track, laps=2, max_time_s=90.0, dynamic=dynamic)
     assert result.cones_hit == set()
     assert result.off_track == 0
     assert result.final_state == AsState.FINISHED
