@@ -75,7 +75,7 @@ class DetectorConfig:
     cluster_max_cones: int = 2
     """Cluster filter: more than this many preliminary cones within cluster_radius_m go."""
     min_layers: int = 2
-    single_layer_beyond_m: float = 5.0
+    single_layer_beyond_m: float = 4.0
     """Beyond this range one layer is accepted when the ring geometry allows only one (m)."""
     min_points: int = 3
     small_height_m: float = 0.30
