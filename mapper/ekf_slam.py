@@ -247,6 +247,41 @@ class EkfSlam:
         """The preliminary landmark list (K, 2), world frame."""
         return self._prelim_xy.copy()
 
+    def load_state(self, x: FloatArray, p: FloatArray, timestamp_s: float = 0.0) -> None:
+        """Replace the state (5 + 2 N,) and covariance; landmarks get fresh ids, seen now.
+
+        For tests and benchmarks (and restoring a saved filter).
+        """
+        x = np.asarray(x, np.float64).reshape(-1)
+        p = np.asarray(p, np.float64)
+        n = x.size
+        if n < POSE_DIM or (n - POSE_DIM) % 2 or p.shape != (n, n):
+            raise ValueError(f"load_state: bad shapes x {x.shape}, P {p.shape}")
+        cap = max(self._xbuf.size, n)
+        self._xbuf = np.zeros(cap)
+        self._pbuf = np.zeros((cap, cap))
+        self._xbuf[:n] = x
+        self._pbuf[:n, :n] = p
+        self._n = n
+        self._f_acc = np.eye(POSE_DIM)
+        self._f_pending = False
+        m = self.n_landmarks
+        self._ids = np.arange(m, dtype=np.int64)
+        self._next_id = m
+        self._first_seen_m = np.full(m, self.odometer_m)
+        self._last_seen_m = np.full(m, self.odometer_m)
+        self._colour_votes = np.zeros((m, _N_COLOURS))
+        self._size_votes = np.zeros((m, _N_SIZES))
+        self.t_s = timestamp_s
+
+    def update_landmarks(self, z: FloatArray, r: FloatArray, landmarks: NDArray[np.int64]
+                         ) -> bool:
+        """The batched update for KNOWN associations: detections ``z`` (a, 2) in the vehicle
+        frame at the filter's time, noise ``r`` (a, 2, 2), landmark indices (a,)."""
+        return self._apply_cone_update(np.asarray(z, np.float64).reshape(-1, 2),
+                                       np.asarray(r, np.float64).reshape(-1, 2, 2),
+                                       np.asarray(landmarks, np.int64).reshape(-1))
+
     def _flush(self) -> None:
         """Apply the accumulated pose Jacobian to the pose-landmark cross block (eq. 5.8)."""
         if not self._f_pending:
@@ -551,7 +586,7 @@ class EkfSlam:
             self.try_close_loop()
         return int(assigned_det.size)
 
-    def _apply_cone_update(self, z: FloatArray, r: FloatArray, lm: NDArray[np.int64]) -> None:
+    def _apply_cone_update(self, z: FloatArray, r: FloatArray, lm: NDArray[np.int64]) -> bool:
         """One batched update for detections ``z`` (a, 2) of landmarks ``lm`` (a,)."""
         a = lm.size
         lm_xy = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)[lm]
@@ -568,7 +603,7 @@ class EkfSlam:
         for i in range(2):
             for j in range(2):
                 rr[bi + i, bi + j] = r[:, i, j]
-        self._update(cols, h, (z - zhat).ravel(), rr)
+        return self._update(cols, h, (z - zhat).ravel(), rr)
 
     def _preliminary(self, z: FloatArray, r: FloatArray, sizes: NDArray[np.int64],
                      colours: NDArray[np.int64]) -> None:
