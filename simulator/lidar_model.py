@@ -267,20 +267,19 @@ class LidarModel:
         rad = np.where(big, LARGE_CONE[0], SMALL_CONE[0])
         height = np.where(big, LARGE_CONE[1], SMALL_CONE[1])
         # candidate (sequence, cone) pairs: sequences whose azimuth is within the cone's angular
-        # half-width (plus the batch's motion) of the cone's bearing at the batch's middle
-        qx_m, qy_m = cxy[:, 0] - sx[1], cxy[:, 1] - sy[1]
-        d_c = np.hypot(qx_m, qy_m)
-        az_c = np.degrees(syaw[1] - np.arctan2(qy_m, qx_m))  # clockwise from the nose
-        duration = float(t_seq[-1] - t_seq[0])
-        speed = math.hypot(truth.vx_mps, truth.vy_mps)
-        margin = rad + 0.05 + speed * duration
-        half_deg = (np.degrees(np.arcsin(np.minimum(1.0, margin / np.maximum(d_c, 1e-6))))
-                    + abs(math.degrees(truth.yaw_rate_radps)) * duration)
+        # half-width of its bearing, the bearing taken from the batch's first and last poses
         step_deg = 360.0 * self.rate_hz * FIRING_CYCLE_S
-        turn = np.mod(az_c - az_seq[mid] + 180.0, 360.0) - 180.0
-        centre = mid + turn / step_deg
-        lo = np.maximum(np.ceil(centre - half_deg / step_deg), 0).astype(np.int64)
-        hi = np.minimum(np.floor(centre + half_deg / step_deg), t_seq.size - 1).astype(np.int64)
+        centres = []
+        for k in (0, 2):
+            qx_k, qy_k = cxy[:, 0] - sx[k], cxy[:, 1] - sy[k]
+            az_c = np.degrees(syaw[k] - np.arctan2(qy_k, qx_k))  # clockwise from the nose
+            centres.append(mid + (np.mod(az_c - az_seq[mid] + 180.0, 360.0) - 180.0) / step_deg)
+        d_c = np.hypot(cxy[:, 0] - sx[1], cxy[:, 1] - sy[1])
+        half = np.degrees(np.arcsin(np.minimum(1.0, (rad + 0.05) / np.maximum(d_c, 1e-6))))
+        half = half / step_deg + 1.0
+        lo = np.maximum(np.ceil(np.minimum(centres[0], centres[1]) - half), 0).astype(np.int64)
+        hi = np.minimum(np.floor(np.maximum(centres[0], centres[1]) + half),
+                        t_seq.size - 1).astype(np.int64)
         counts = np.maximum(hi - lo + 1, 0)
         total = int(counts.sum())
         if total == 0:
@@ -288,19 +287,32 @@ class LidarModel:
         cand_c = np.repeat(np.arange(cidx.size), counts)
         first = np.cumsum(counts) - counts
         cand_f = np.repeat(lo - first, counts) + np.arange(total)
-        # each candidate sequence's own sensor pose, and each laser's own azimuth
-        px, py, pyaw = self._poses(t_seq[cand_f], truth)
-        hd = (pyaw - np.radians(az_seq[cand_f]))[:, None] - self._laser_drad[None, :]
+        # lasers that can meet each cone at all: the ray's height across the cone's depth
+        # overlaps the cone (the others pass over it or hit the ground before it)
+        near_d = np.maximum(d_c - rad, 0.05)[:, None]
+        far_d = (d_c + rad)[:, None]
+        z_near = self._laser_h[None, :] + _TAN_EL[None, :] * near_d
+        z_far = self._laser_h[None, :] + _TAN_EL[None, :] * far_d
+        can = (np.maximum(z_near, z_far) >= 0.0) & (np.minimum(z_near, z_far) <= height[:, None])
+        pair, laser = np.nonzero(can[cand_c])
+        if pair.size == 0:
+            return None
+        f = cand_f[pair]
+        c = cand_c[pair]
+        # each ray's own sensor pose and azimuth
+        px, py, pyaw = self._poses(t_seq[f], truth)
+        hd = pyaw - np.radians(az_seq[f]) - self._laser_drad[laser]
         ux, uy = np.cos(hd), np.sin(hd)
-        qx = (cxy[cand_c, 0] - px)[:, None]
-        qy = (cxy[cand_c, 1] - py)[:, None]
+        qx = cxy[c, 0] - px
+        qy = cxy[c, 1] - py
         # exact ray-cone intersection: horizontal distance s along the ray where the ray meets
         # the cone's surface, radius a0 + a1 s at the ray's height there
         b = qx * ux + qy * uy
         q2 = qx * qx + qy * qy
-        r0, hh = rad[cand_c][:, None], height[cand_c][:, None]
-        a0 = r0 * (1.0 - self._laser_h[None, :] / hh)
-        a1 = -r0 * _TAN_EL[None, :] / hh
+        r0, hh = rad[c], height[c]
+        lh, tan = self._laser_h[laser], _TAN_EL[laser]
+        a0 = r0 * (1.0 - lh / hh)
+        a1 = -r0 * tan / hh
         qa = 1.0 - a1 * a1
         qb = b + a0 * a1
         qc = q2 - a0 * a0
@@ -308,20 +320,22 @@ class LidarModel:
         ok = disc >= 0.0
         if not ok.any():
             return None
-        root = np.sqrt(np.where(ok, disc, 0.0))
-        hit_s = np.full(disc.shape, np.inf)
+        f, c, laser = f[ok], c[ok], laser[ok]
+        qa, qb, a0, a1, lh, tan, hh = qa[ok], qb[ok], a0[ok], a1[ok], lh[ok], tan[ok], hh[ok]
+        root = np.sqrt(disc[ok])
+        hit_s = np.full(root.shape, np.inf)
         for sign in (-1.0, 1.0):  # the larger root first, so the smaller one wins
-            s = (qb - sign * root) / qa
-            z = self._laser_h[None, :] + _TAN_EL[None, :] * s
-            valid = ok & (s > 0.0) & (a0 + a1 * s >= 0.0) & (z >= 0.0) & (z <= hh)
-            hit_s = np.where(valid, s, hit_s)
-        pair, laser = np.nonzero(np.isfinite(hit_s))
-        if pair.size == 0:
+            s_h = (qb - sign * root) / qa
+            z = lh + tan * s_h
+            valid = (s_h > 0.0) & (a0 + a1 * s_h >= 0.0) & (z >= 0.0) & (z <= hh)
+            hit_s = np.where(valid, s_h, hit_s)
+        hit = np.isfinite(hit_s)
+        if not hit.any():
             return None
-        d = hit_s[pair, laser] / _COS_EL[laser]
-        f = cand_f[pair]
+        laser = laser[hit]
+        d = hit_s[hit] / _COS_EL[laser]
         # nearest cone per ray: sort by ray, then by range, keep the first of each ray
-        ray = f * LASERS + laser
+        ray = f[hit] * LASERS + laser
         order = np.lexsort((d, ray))
         ray, d = ray[order], d[order]
         keep = np.ones(ray.size, dtype=bool)
