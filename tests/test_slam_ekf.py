@@ -1,0 +1,199 @@
+"""EKF SLAM (seed 000, 5.3): one lap of FSG with loop closure, generated loops, and the pieces."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.config import CarConfig
+from common.messages import ConeColour, ConeDetection, ConeSize, ImuSample, WheelSpeeds
+from mapper import slam_sim
+from mapper.config import MapperConfig
+from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
+from mapper.slam_blas import limit_blas_threads
+from mapper.slam_reference import textbook_update
+
+limit_blas_threads(1)
+
+
+@pytest.fixture(scope="module")
+def fsg_run() -> slam_sim.SlamRun:
+    if not slam_sim.FSG_PATH.exists():
+        pytest.skip(f"{slam_sim.FSG_PATH} not present")
+    car = CarConfig()
+    sim = slam_sim.simulate(slam_sim.load_fsg(), car, seed=0)
+    return slam_sim.run_slam(sim, MapperConfig(), car)
+
+
+def test_fsg_lap_closes_the_loop(fsg_run: slam_sim.SlamRun) -> None:
+    assert fsg_run.slam.loop_closed
+    assert fsg_run.slam.try_close_loop()
+    # Duplicates of the start area were created (no association after unseen_travel_m) and merged.
+    assert fsg_run.slam.merged_on_closure >= 4
+
+
+def test_fsg_map_accuracy(fsg_run: slam_sim.SlamRun) -> None:
+    m = fsg_run.map_metrics
+    assert m["rmse_m"] <= 0.10
+    assert m["false_landmarks"] <= 0.02 * m["true_cones"]
+    assert m["missed_cones"] <= 0.02 * m["true_cones"]
+    assert m["colour_accuracy"] >= 0.98
+
+
+def test_fsg_pose_accuracy(fsg_run: slam_sim.SlamRun) -> None:
+    p = fsg_run.pose_metrics
+    assert p["pose_rmse_m"] <= 0.10
+    assert p["heading_rmse_rad"] <= 0.01
+    assert p["final_offset_m"] <= 0.10
+
+
+def test_fsg_nees_inside_the_95_percent_band(fsg_run: slam_sim.SlamRun) -> None:
+    assert fsg_run.nees_in_band >= 0.90
+
+
+def test_fsg_pose_estimate_has_vehicle_frame_velocity(fsg_run: slam_sim.SlamRun) -> None:
+    pose = fsg_run.slam.pose()
+    # After the lap the car drives on at up to 8 m/s, forward, with ~no sideslip at the axle.
+    assert 2.0 < pose.vx_mps < 8.5
+    assert abs(pose.vy_mps) < 0.2
+    assert np.allclose(pose.covariance, pose.covariance.T)
+
+
+@pytest.mark.parametrize("seed", [0, 5, 11])
+def test_loop_closure_on_generated_tracks(seed: int) -> None:
+    car = CarConfig()
+    sim = slam_sim.simulate(slam_sim.generated_loop(seed), car, seed=seed)
+    run = slam_sim.run_slam(sim, MapperConfig(), car)
+    assert run.slam.loop_closed
+    assert run.map_metrics["false_landmarks"] <= 0.02 * run.map_metrics["true_cones"]
+    assert run.map_metrics["rmse_m"] <= 0.15
+
+
+# ---------------------------------------------------------------------------------------------
+# Pieces
+# ---------------------------------------------------------------------------------------------
+
+
+def _filter_with_landmarks(lm_xy: np.ndarray, sigma_m: float = 0.05) -> EkfSlam:
+    slam = EkfSlam(MapperConfig(), CarConfig())
+    n = POSE_DIM + 2 * lm_xy.shape[0]
+    x = np.zeros(n)
+    x[POSE_DIM:] = lm_xy.ravel()
+    p = np.eye(n) * sigma_m ** 2
+    p[2, 2] = 1e-6
+    slam.load_state(x, p)
+    return slam
+
+
+def _det(x: float, y: float, size: ConeSize = ConeSize.SMALL) -> ConeDetection:
+    return ConeDetection(0.0, x, y, size=size)
+
+
+def test_batched_update_equals_the_textbook_update() -> None:
+    rng = np.random.default_rng(1)
+    lm = rng.uniform(-10, 10, (12, 2))
+    slam = _filter_with_landmarks(lm)
+    n = slam.x.size
+    b = rng.normal(0, 0.02, (n, n))
+    p0 = b @ b.T + np.eye(n) * 1e-3
+    x0 = slam.x.copy()
+    x0[:5] = [0.3, -0.2, 0.1, 5.0, 0.5]
+    slam.load_state(x0, p0)
+    idx = np.array([1, 4, 7, 9])
+    z = observation_model(x0[:3], lm[idx])[0] + rng.normal(0, 0.02, (4, 2))
+    r = np.tile(np.diag([4e-4, 9e-4]), (4, 1, 1))
+    assert slam.update_landmarks(z, r, idx)
+    for form in ("joseph", "simple"):
+        x_ref, p_ref = textbook_update(x0, p0, z, r, idx, form)
+        assert np.max(np.abs(slam.x - x_ref)) < 1e-9
+        assert np.max(np.abs(slam.P - p_ref)) < 1e-9
+    assert np.array_equal(slam.P, slam.P.T)
+
+
+def test_preliminary_list_needs_a_second_sighting() -> None:
+    slam = EkfSlam(MapperConfig(), CarConfig())
+    slam.update_cones([_det(6.0, 2.0), _det(8.0, -3.0)], 0.0)
+    assert slam.n_landmarks == 0 and len(slam.preliminary_xy_m) == 2
+    # Only the first is seen again; the second (a false cone) is forgotten.
+    slam.update_cones([_det(6.01, 2.0), _det(3.0, 5.0)], 0.1)
+    assert slam.n_landmarks == 1
+    assert np.allclose(slam.landmarks_xy_m[0], [6.01, 2.0], atol=0.02)
+    slam.update_cones([_det(6.0, 2.0)], 0.2)
+    assert slam.n_landmarks == 1
+
+
+def test_global_assignment_and_gating() -> None:
+    slam = _filter_with_landmarks(np.array([[5.0, 1.0], [5.0, -1.0], [10.0, 0.0]]), 0.02)
+    # Two detections near the first two landmarks, one far from everything (a new candidate).
+    n = slam.update_cones([_det(5.02, 0.99), _det(4.98, -1.01), _det(7.5, 4.0)], 0.0)
+    assert n == 2
+    assert slam.n_landmarks == 3 and len(slam.preliminary_xy_m) == 1
+    # A detection between landmarks but outside every gate is neither associated nor new.
+    before = slam.stats["cones_ambiguous"]
+    assert slam.update_cones([_det(5.0, 0.3)], 0.0) == 0
+    assert slam.stats["cones_ambiguous"] == before + 1 and len(slam.preliminary_xy_m) == 0
+
+
+def test_landmarks_unseen_for_long_are_not_associated() -> None:
+    slam = _filter_with_landmarks(np.array([[5.0, 0.0]]), 0.02)
+    slam.odometer_m = slam.cfg.unseen_travel_m + 1.0
+    assert slam.update_cones([_det(5.0, 0.0)], 0.0) == 0
+    assert len(slam.preliminary_xy_m) == 1
+
+
+def test_merge_deletes_rows_and_columns() -> None:
+    slam = _filter_with_landmarks(np.array([[5.0, 0.0], [9.0, 3.0], [5.05, 0.02]]), 0.05)
+    ids_before = slam.cone_map().ids.tolist()
+    slam._merge(np.array([0]), np.array([2]))
+    assert slam.n_landmarks == 2 and slam.P.shape == (9, 9)
+    assert slam.cone_map().ids.tolist() == ids_before[:2]
+    # Equal weights: the merged landmark lies between the two.
+    assert np.allclose(slam.landmarks_xy_m[0], [5.025, 0.01], atol=1e-3)
+    assert np.all(np.linalg.eigvalsh(slam.P) > 0)
+
+
+def test_odometry_and_gps_reduce_uncertainty_and_reject_bad_input() -> None:
+    slam = EkfSlam(MapperConfig(), CarConfig())
+    for k in range(200):
+        slam.predict(ImuSample(k * 0.005, 1.0, 0.0, 9.81, 0.0, 0.0, 0.0))
+    var_v = slam.P[3, 3]
+    slam.update_odometry(WheelSpeeds(1.0, 1.0, 1.0, 1.0, 1.0), None)
+    assert slam.P[3, 3] < var_v
+    assert slam.pose().vx_mps == pytest.approx(1.0, abs=0.05)
+    slam.update_odometry(WheelSpeeds(1.0, math.nan, 1.0, math.nan, 1.0), None)
+    assert slam.stats["odometry_rejected_nonfinite"] == 1
+    var_x = slam.P[0, 0]
+    assert slam.update_gps_xy(np.array([0.5, 0.0]), np.eye(2) * 0.01, 1.0)
+    assert slam.P[0, 0] < var_x
+    assert not slam.update_gps_xy(np.array([500.0, 0.0]), np.eye(2) * 0.01, 1.0)
+    assert slam.stats["gps_rejected_gate"] == 1
+    slam.predict(ImuSample(0.5, 0.0, 0.0, 9.81, 0.0, 0.0, 0.0))   # older than the filter
+    assert slam.stats["imu_rejected_old"] == 1
+    slam.update_cones([ConeDetection(1.0, math.inf, 0.0)], 1.0)
+    assert slam.stats["cones_rejected"] == 1
+
+
+def test_colour_votes_and_sizes_make_the_cone_map() -> None:
+    slam = _filter_with_landmarks(np.array([[5.0, 2.0], [5.0, -2.0]]))
+    camera = [ConeDetection(0.0, 5.1, 2.0, ConeColour.BLUE, confidence=0.9),
+              ConeDetection(0.0, 5.0, -2.1, ConeColour.YELLOW, confidence=0.9),
+              ConeDetection(0.0, 20.0, 0.0, ConeColour.ORANGE, confidence=0.9)]
+    assert slam.add_colour_votes(camera) == 2
+    slam.add_colour_votes([ConeDetection(0.0, 5.0, 2.0, ConeColour.YELLOW, confidence=0.5)])
+    cones = slam.cone_map()
+    assert cones.colour.tolist() == [ConeColour.BLUE, ConeColour.YELLOW]
+    assert cones.covariance.shape == (2, 2, 2)
+    assert np.allclose(cones.covariance[0], np.eye(2) * 0.05 ** 2)
+
+
+def test_sweep_detections_are_moved_to_the_sweep_time() -> None:
+    """A cone seen 50 ms before the sweep's end while driving at 8 m/s is 0.4 m closer at the
+    end: the update must agree with a landmark 0.4 m closer."""
+    slam = _filter_with_landmarks(np.array([[10.0, 0.0]]), 0.01)
+    slam.x[3] = 8.0
+    slam.P[3, 3] = 1e-6
+    det = ConeDetection(-0.05, 10.4, 0.0)
+    assert slam.update_cones([det], 0.0) == 1
+    assert slam.x[0] == pytest.approx(0.0, abs=0.01)
