@@ -28,7 +28,7 @@ def limit_blas_threads(threads: int = 1) -> int:
 
     count = 0
     for package in (numpy, scipy):
-        libs = Path(package.__file__).resolve().parent.parent / f"{package.__name__}.libs"
+        libs = Path(str(package.__file__)).resolve().parent.parent / f"{package.__name__}.libs"
         for path in sorted(libs.glob("lib*openblas*.so*")):
             try:
                 lib = ctypes.CDLL(str(path))

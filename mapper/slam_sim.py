@@ -10,6 +10,7 @@ camera cones (10 Hz, colour with errors).
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -188,11 +189,11 @@ def generated_loop(seed: int) -> Scenario:
     each side of a 3.5 m wide track, four big orange cones at the start. Uses
     ``simulator.track_generator.generate_track`` when it exists."""
     try:
-        from simulator.track_generator import generate_track  # type: ignore[import-not-found]
+        module: Any = importlib.import_module("simulator.track_generator")
     except ImportError:
-        generate_track = None
-    if generate_track is not None:
-        track = generate_track(seed)
+        module = None
+    if module is not None and hasattr(module, "generate_track"):
+        track = module.generate_track(seed)
         return Scenario(f"gen:{seed}", np.asarray(track.cones_xy_m, np.float64),
                         np.asarray(track.colours, np.int64), np.asarray(track.sizes, np.int64),
                         np.asarray(track.centreline_xy_m, np.float64))
