@@ -107,8 +107,10 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
 
     from orchestrator.replay import ReplayOptions, run_replay
 
+    config_file = Path(args.config) if args.config else None
     summary = run_replay(config, ReplayOptions(args.recording, rate=args.rate,
-                                               out_dir=args.out, render=args.render))
+                                               out_dir=args.out, render=args.render,
+                                               config_file=config_file))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

@@ -4,6 +4,10 @@ Main ticks at exactly the times it ticked when the recording was made (k / contr
 each tick is handed the raw units whose log time falls in it, so the map states, plans and
 commands are the recording's own, bit for bit, whatever the replay rate: ``--rate R`` only paces
 how fast the recording is read (on its own clock), never what is in a tick.
+
+The stack is configured as in the run that made the recording (its configuration is stored in
+the recording's ``fsd`` metadata as TOML), with the replay's own ``--config`` file on top: the
+run's ``--laps`` or mapper choice is part of what it computed.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ import json
 import logging
 import math
 import time
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from common.clock import SimClock
-from common.config import AppConfig
+from common.config import AppConfig, apply_overrides
 from common.conventions import wrap_angles
-from common.errors import RecordingError
+from common.errors import ConfigError, RecordingError
 from common.messages import CanFrame, GroundTruth, RawBytes
 from controller.controller import Controller
 from mapper.evaluation import evaluate_map
@@ -44,6 +49,9 @@ class ReplayOptions:
     rate: float | None = None
     out_dir: Path | None = None
     render: bool = False
+    config_file: Path | None = None
+    """The replay's own ``--config`` file, applied on top of the recording's configuration."""
+    use_recorded_config: bool = True
 
 
 def last_command_time_s(path: Path) -> float:
@@ -54,11 +62,43 @@ def last_command_time_s(path: Path) -> float:
     return last
 
 
+def recorded_config(path: Path) -> dict[str, Any] | None:
+    """The configuration of the run that made the recording (None: the recording has none)."""
+    text = Player(path, rate=None).metadata.get("fsd", {}).get("config_toml")
+    if not text:
+        return None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        log.warning("%s: unreadable recorded configuration (%s); using the given one", path, exc)
+        return None
+
+
+def replay_config(config: AppConfig, path: Path, config_file: Path | None) -> AppConfig:
+    """The recording's configuration with ``config_file`` on top; ``config`` if it has none."""
+    recorded = recorded_config(path)
+    if recorded is None:
+        return config
+    try:
+        merged = apply_overrides(AppConfig(), recorded, f"{path} (recorded configuration)")
+    except ConfigError as exc:
+        log.warning("%s; replaying with the given configuration instead", exc)
+        return config
+    if config_file is not None:
+        with config_file.open("rb") as fh:
+            apply_overrides(merged, tomllib.load(fh), str(config_file))
+    log.info("replaying with the recording's configuration%s",
+             f" overridden by {config_file}" if config_file is not None else "")
+    return merged
+
+
 def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     """Replay a recording through Main; write ``summary.json`` when an out dir is given."""
     path = options.path
     if not path.exists():
         raise RecordingError(f"{path}: no such recording")
+    if options.use_recorded_config:
+        config = replay_config(config, path, options.config_file)
     end_s = last_command_time_s(path)
     if not math.isfinite(end_s):
         raise RecordingError(f"{path}: has no /command messages to know where the run ended")

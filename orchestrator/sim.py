@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from common.clock import RealClock, SimClock
-from common.config import AppConfig
+from common.config import AppConfig, config_to_toml
 from common.messages import ActuatorCommand, AsState
 from controller.controller import Controller
 from mapper.evaluation import evaluate_map
@@ -101,7 +101,11 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     recorder = None
     outputs: list[Any] = [hasher]
     if config.run.record:
-        recorder = Recorder(out_dir / "recording.mcap", config.recording, config.car, blocking=True)
+        # The run's configuration goes with the recording, so that a replay runs the same stack.
+        metadata = {"track": track.name, "seed": str(config.sim.seed),
+                    "config_toml": config_to_toml(config)}
+        recorder = Recorder(out_dir / "recording.mcap", config.recording, config.car,
+                            metadata=metadata, blocking=True)
         outputs.append(recorder)
         recorder.write(TRUTH_TRACK, track, 0.0)
     visualiser = None
