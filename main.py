@@ -11,11 +11,17 @@ anything starts, with one line naming the file, the key and what was expected.
 
 from __future__ import annotations
 
+import os
+
+# Before numpy is imported: the estimators' matrices (at most ~600 x 600) are too small for BLAS
+# threads to pay, and on a 2-core car computer threads fight the control loop.
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
 import argparse
 import importlib
 import importlib.util
 import logging
-import os
 import sys
 from collections.abc import Sequence
 
