@@ -53,7 +53,7 @@ class RunLog:
 
     def save(self, path: Path) -> None:
         """Write the arrays as a compressed ``.npz`` (for plots and later analysis)."""
-        np.savez_compressed(path, **self.arrays())
+        np.savez_compressed(path, **self.arrays())  # type: ignore[arg-type]
 
     def pose_errors(self) -> dict[str, float]:
         """Position and heading RMSE over the run and the final position offset (m, rad)."""

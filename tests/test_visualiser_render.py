@@ -66,7 +66,7 @@ def test_visualiser_process_writes_frames_named_by_time(tmp_path: Path) -> None:
     config = AppConfig()
     config.visualiser.width_px, config.visualiser.height_px = 320, 240
     with Visualiser(config, tmp_path) as vis:
-        for k in range(3):
+        for _ in range(3):
             assert vis.submit(known_map(), None, None) or vis.dropped
     files = sorted(p.name for p in tmp_path.glob("frame_*.png"))
     assert frame_file_name(3.0) in files
