@@ -26,5 +26,7 @@ class VisualiserConfig:
     """Movie made from a run's frames ('' for none; .mp4 needs ffmpeg, .gif does not)."""
     movie_fps: float = 10.0
     """Playback frames per second of the movie."""
+    window: bool = False
+    """Also show the frames in a window, when a display exists (the car's screen, a laptop)."""
     show_truth: bool = True
     """Draw the true cones and pose, faint, when known (simulation)."""

@@ -81,9 +81,28 @@ class FrameRenderer:
         Image.frombytes("RGB", (w, h), data).save(path, compress_level=self.png_compress_level)
 
 
+def _open_window(width_px: int, height_px: int) -> Any:
+    """A resizable window when a display exists, else None (frames are still written)."""
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        logging.getLogger(__name__).warning("visualiser.window asked for, but no display: off")
+        return None
+    os.environ["SDL_VIDEODRIVER"] = os.environ.get("FSD_SDL_VIDEODRIVER", "x11")
+    import pygame
+
+    pygame.display.init()
+    window = pygame.display.set_mode((width_px, height_px), pygame.RESIZABLE)
+    pygame.display.set_caption("fsd-stack map")
+    return window
+
+
 def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view: str,
-                   follow_span_m: float, png_compress_level: int) -> None:
+                   follow_span_m: float, png_compress_level: int, window: bool = False) -> None:
     """Renderer process: draw and save every frame it is given until ``None`` arrives."""
+    try:
+        os.nice(10)  # drawing yields the CPU to the control loop, never the other way round
+    except OSError:
+        pass
+    screen = _open_window(width_px, height_px) if window else None
     renderer = FrameRenderer(width_px, height_px, view, follow_span_m, png_compress_level)
     target = Path(out_dir)
     target.mkdir(parents=True, exist_ok=True)
@@ -96,8 +115,16 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
             renderer.track = payload
             continue
         try:
-            renderer.render(payload)
+            surface = renderer.render(payload)
             renderer.save_png(target / frame_file_name(payload.t_s))
+            if screen is not None:
+                import pygame
+
+                pygame.event.pump()
+                size = pygame.display.get_surface().get_size()
+                pygame.display.get_surface().blit(pygame.transform.smoothscale(surface, size),
+                                                  (0, 0))
+                pygame.display.flip()
         except Exception:  # a bad frame must not kill the renderer
             logging.getLogger(__name__).exception("frame at t=%s failed", payload.t_s)
 
@@ -114,7 +141,7 @@ class Visualiser:
         self._process = ctx.Process(
             target=_render_worker, name="visualiser",
             args=(self._jobs, str(self.out_dir), vis.width_px, vis.height_px, vis.view,
-                  vis.follow_span_m, vis.png_compress_level),
+                  vis.follow_span_m, vis.png_compress_level, vis.window),
             daemon=True,
         )
         self._process.start()
