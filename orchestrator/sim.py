@@ -93,7 +93,9 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     track = load_track(config.sim.track)
     faults = [parse_fault(text) for text in options.faults]
     world = SimWorld(config, track, config.sim.seed, faults=faults)
-    driver = ScriptedDriver(track, config.car, config.sim.seed)
+    driver = ScriptedDriver(track, config.car, config.sim.seed,
+                            speed_mps=config.sim.driver_speed_mps,
+                            steer_noise_rad=config.sim.driver_steer_noise_rad)
 
     clock = SimClock()
     sensors = SensorManager(config, clock)
@@ -135,6 +137,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         if visualiser is not None:
             visualiser.close()
 
+    if visualiser is not None:
+        _movie(config, out_dir)
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
@@ -325,6 +329,20 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
 
 def _round(value: float, digits: int = 3) -> float | None:
     return None if value is None or not math.isfinite(value) else round(value, digits)
+
+
+def _movie(config: AppConfig, out_dir: Path) -> None:
+    """The run's frames as a movie (``visualiser.movie``), when there are frames."""
+    from visualiser.movie import frames_in, make_movie
+
+    name = config.visualiser.movie
+    frames = frames_in(out_dir / "frames")
+    if not name or not frames:
+        return
+    try:
+        make_movie(frames, out_dir / name, config.visualiser.movie_fps)
+    except Exception:  # a movie is a convenience: the run's results stand without it
+        log.exception("could not make %s", name)
 
 
 def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:
