@@ -65,7 +65,9 @@ class HardwareEmulator:
             config.sim.seed = options.seed
         self.track = load_track(options.track)
         self.world = SimWorld(config, self.track, config.sim.seed)
-        self.driver = ScriptedDriver(self.track, config.car, config.sim.seed)
+        self.driver = ScriptedDriver(self.track, config.car, config.sim.seed,
+                                     speed_mps=config.sim.driver_speed_mps,
+                                     steer_noise_rad=config.sim.driver_steer_noise_rad)
         self.person = Handover(self.track, self.driver, self.world,
                                overrun_m=config.run.exploration_overrun_m,
                                standstill_s=config.run.handover_standstill_s)
