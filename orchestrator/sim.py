@@ -59,6 +59,8 @@ class SimOptions:
     realtime: bool = False
     faults: list[str] = field(default_factory=list)
     progress: bool = False
+    end_at_handover: bool = False
+    """End the run when the exploration lap is over (at the RES go): stop reason 'handover'."""
 
 
 def default_out_dir(root: Path = Path("runs")) -> Path:
@@ -241,6 +243,8 @@ class _SimRunner:
                 }
 
     def _done(self, t_s: float, truth: Any) -> tuple[bool, str, bool]:
+        if self.options.end_at_handover and self.person.phase == Phase.AUTONOMOUS:
+            return True, "handover", True
         controller = self.main.controller
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         state = controller.state
