@@ -41,7 +41,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
         "replay", parents=[common],
         help="feed a recording's raw sensor data through the stack (deterministic at any rate)",
     )
-    replay.add_argument("recording", type=Path, help="an .mcap recording")
+    replay.add_argument("recording", type=Path,
+                        help="an .mcap recording, or 'sample' (one simulated exploration lap, "
+                        "made on first use)")
     pace = replay.add_mutually_exclusive_group()
     pace.add_argument("--rate", type=float, default=None,
                       help="replay rate on the recording's clock (1 = real time)")
@@ -106,9 +108,11 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     import json
 
     from orchestrator.replay import ReplayOptions, run_replay
+    from recordings.sample import resolve_recording
 
     config_file = Path(args.config) if args.config else None
-    summary = run_replay(config, ReplayOptions(args.recording, rate=args.rate,
+    recording = resolve_recording(args.recording)
+    summary = run_replay(config, ReplayOptions(recording, rate=args.rate,
                                                out_dir=args.out, render=args.render,
                                                config_file=config_file))
     if args.json:
