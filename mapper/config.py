@@ -180,7 +180,20 @@ class SlamConfig:
     """The 'zero-noise' same-point measurement's floor (m): seed 5.3.2 uses none."""
     wheel_speed_sigma_mps: float = 0.05
     lateral_velocity_sigma_mps: float = 0.05
-    """Non-holonomic pseudo-measurement: the rear axle does not slide sideways."""
+    """Non-holonomic pseudo-measurement: the rear axle slides sideways only by its slip."""
+    rear_slip_rad_per_mps2: float = 0.0073
+    """Rear-axle slip angle per lateral acceleration (rad per m/s^2): the rear axle slides
+    outwards at ``vx * k * a_y`` in a corner. ``1 / (C * g)`` with C the rear cornering
+    stiffness per axle load (1/rad; 14 for the default car's tyres); 0 = no slip."""
+    imu_bias_states: bool = True
+    """Estimate the gyro z and accelerometer x, y biases as states (the car may start moving
+    without a standstill to calibrate them)."""
+    initial_gyro_bias_sigma_radps: float = 0.005
+    initial_accel_bias_sigma_mps2: float = 0.2
+    gyro_bias_walk_radps_rths: float = 2.0e-5
+    """Gyro bias random walk (rad/s per sqrt(s))."""
+    accel_bias_walk_mps2_rths: float = 1.0e-3
+    """Accelerometer bias random walk (m/s^2 per sqrt(s)), with slow pitch/roll leakage."""
     use_odometry: bool = True
     use_gps: bool = True
     gps_gate_probability: float = 0.9999

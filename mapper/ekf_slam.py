@@ -82,6 +82,8 @@ log = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 POSE_DIM = 5
 """x, y, yaw, vx, vy."""
+BIAS_DIM = 3
+"""Gyro z bias (rad/s), accelerometer x and y biases (m/s^2), after the pose when estimated."""
 _N_COLOURS = len(ConeColour)
 _N_SIZES = len(ConeSize)
 _BIG = 1.0e9
@@ -184,15 +186,14 @@ class EkfSlam:
         self._merge_gate = float(chi2.ppf(c.merge_gate_probability, 2))
         self._gps_gate = float(chi2.ppf(c.gps_gate_probability, 2))
         self._heading_seed = c.heading_mode == "seed"
-        cap = POSE_DIM + 2 * 64
+        self._pd = POSE_DIM + (BIAS_DIM if c.imu_bias_states else 0)
+        """Vehicle states before the landmarks: the pose (5) and, when estimated, the biases."""
+        cap = self._pd + 2 * 64
         self._xbuf = np.zeros(cap)
         self._pbuf = np.zeros((cap, cap))
-        self._n = POSE_DIM
-        p0 = np.array([c.initial_position_sigma_m, c.initial_position_sigma_m,
-                       c.initial_yaw_sigma_rad, c.initial_velocity_sigma_mps,
-                       c.initial_velocity_sigma_mps]) ** 2
-        self._pbuf[:POSE_DIM, :POSE_DIM] = np.diag(p0)
-        self._f_acc = np.eye(POSE_DIM)
+        self._n = self._pd
+        self._pbuf[:self._pd, :self._pd] = np.diag(self._initial_vehicle_variances())
+        self._f_acc = np.eye(self._pd)
         self._f_pending = False
         # Per-landmark bookkeeping, one row per landmark.
         self._ids = np.zeros(0, np.int64)
@@ -209,8 +210,9 @@ class EkfSlam:
         self.t_s: float | None = None
         self.odometer_m = 0.0
         self._last_imu: ImuSample | None = None
-        self._input = (0.0, 0.0, 0.0)
-        """Last yaw rate and origin body acceleration used (held between IMU samples)."""
+        self._input = (0.0, 0.0, 0.0, 0.0)
+        """Last IMU input: yaw rate, specific force x, y, yaw acceleration (held between
+        samples); see :meth:`_corrected_input`."""
         self.loop_closed = False
         self.loop_closure_odometer_m = math.nan
         self.merged_on_closure = 0
@@ -235,27 +237,50 @@ class EkfSlam:
     @property
     def n_landmarks(self) -> int:
         """Number of landmarks in the filter."""
-        return (self._n - POSE_DIM) // 2
+        return (self._n - self._pd) // 2
 
     @property
     def landmarks_xy_m(self) -> FloatArray:
         """Landmark positions (N, 2), world frame (a copy)."""
-        return self._xbuf[POSE_DIM: self._n].reshape(-1, 2).copy()
+        return self._xbuf[self._pd: self._n].reshape(-1, 2).copy()
 
     @property
     def preliminary_xy_m(self) -> FloatArray:
         """The preliminary landmark list (K, 2), world frame."""
         return self._prelim_xy.copy()
 
-    def load_state(self, x: FloatArray, p: FloatArray, timestamp_s: float = 0.0) -> None:
-        """Replace the state (5 + 2 N,) and covariance; landmarks get fresh ids, seen now.
+    def _initial_vehicle_variances(self) -> FloatArray:
+        c = self.cfg
+        sig = [c.initial_position_sigma_m, c.initial_position_sigma_m, c.initial_yaw_sigma_rad,
+               c.initial_velocity_sigma_mps, c.initial_velocity_sigma_mps]
+        if self._pd > POSE_DIM:
+            sig += [c.initial_gyro_bias_sigma_radps, c.initial_accel_bias_sigma_mps2,
+                    c.initial_accel_bias_sigma_mps2]
+        return np.asarray(sig, np.float64) ** 2
 
-        For tests and benchmarks (and restoring a saved filter).
+    @property
+    def vehicle_dim(self) -> int:
+        """Number of vehicle states before the landmarks: 5 (pose) or 8 (pose and IMU biases)."""
+        return self._pd
+
+    @property
+    def imu_bias(self) -> tuple[float, float, float]:
+        """Estimated gyro z (rad/s), accelerometer x and y (m/s^2) biases (zero if not states)."""
+        if self._pd == POSE_DIM:
+            return 0.0, 0.0, 0.0
+        return float(self._xbuf[5]), float(self._xbuf[6]), float(self._xbuf[7])
+
+    def load_state(self, x: FloatArray, p: FloatArray, timestamp_s: float = 0.0) -> None:
+        """Replace the state (V + 2 N,) and covariance; landmarks get fresh ids, seen now.
+
+        ``V`` is 5 (the pose, an odd-sized state: the IMU biases are then not estimated) or 8
+        (pose and biases, even-sized). For tests and benchmarks (and restoring a saved filter).
         """
         x = np.asarray(x, np.float64).reshape(-1)
         p = np.asarray(p, np.float64)
         n = x.size
-        if n < POSE_DIM or (n - POSE_DIM) % 2 or p.shape != (n, n):
+        self._pd = POSE_DIM if n % 2 else POSE_DIM + BIAS_DIM
+        if n < self._pd or (n - self._pd) % 2 or p.shape != (n, n):
             raise ValueError(f"load_state: bad shapes x {x.shape}, P {p.shape}")
         cap = max(self._xbuf.size, n)
         self._xbuf = np.zeros(cap)
@@ -263,7 +288,7 @@ class EkfSlam:
         self._xbuf[:n] = x
         self._pbuf[:n, :n] = p
         self._n = n
-        self._f_acc = np.eye(POSE_DIM)
+        self._f_acc = np.eye(self._pd)
         self._f_pending = False
         m = self.n_landmarks
         self._ids = np.arange(m, dtype=np.int64)
@@ -287,11 +312,11 @@ class EkfSlam:
         if not self._f_pending:
             return
         n = self._n
-        if n > POSE_DIM:
-            cross = self._f_acc @ self._pbuf[:POSE_DIM, POSE_DIM:n]
-            self._pbuf[:POSE_DIM, POSE_DIM:n] = cross
-            self._pbuf[POSE_DIM:n, :POSE_DIM] = cross.T
-        self._f_acc = np.eye(POSE_DIM)
+        if n > self._pd:
+            cross = self._f_acc @ self._pbuf[:self._pd, self._pd:n]
+            self._pbuf[:self._pd, self._pd:n] = cross
+            self._pbuf[self._pd:n, :self._pd] = cross.T
+        self._f_acc = np.eye(self._pd)
         self._f_pending = False
 
     # ----------------------------------------------------------------------------------------
@@ -316,12 +341,18 @@ class EkfSlam:
                 self.t_s = imu.timestamp_s
             return
         dt = imu.timestamp_s - self.t_s
-        if dt <= 0.0:
+        dt_samples = imu.timestamp_s - prev.timestamp_s
+        if dt < 0.0 or dt_samples <= 0.0:
             self.stats["imu_rejected_old"] += 1
             return
         if dt > self.cfg.max_predict_dt_s:
             self.stats["imu_gap"] += 1
-        dt_samples = imu.timestamp_s - prev.timestamp_s
+        if dt == 0.0:
+            # Another measurement at this very time moved the filter here already (with the
+            # held input): the sample still sets the input for what follows.
+            self._input = self._origin_input(prev, imu, dt_samples)
+            self._last_imu = imu
+            return
         self._input = self._origin_input(prev, imu, dt_samples)
         self._last_imu = imu
         self._propagate(dt)
@@ -339,37 +370,63 @@ class EkfSlam:
         self.t_s = timestamp_s
 
     def _origin_input(self, prev: ImuSample, cur: ImuSample, dt_s: float
-                      ) -> tuple[float, float, float]:
-        """Yaw rate and body acceleration of the vehicle origin (trapezoid over the interval).
+                      ) -> tuple[float, float, float, float]:
+        """The IMU's mean yaw rate, specific force x, y over the interval (trapezoid) and the
+        differenced yaw acceleration; biases and the lever arm are applied in
+        :meth:`_corrected_input`."""
+        w = 0.5 * (prev.gyro_z_radps + cur.gyro_z_radps)
+        ax = 0.5 * (prev.accel_x_mps2 + cur.accel_x_mps2)
+        ay = 0.5 * (prev.accel_y_mps2 + cur.accel_y_mps2)
+        w_dot = (cur.gyro_z_radps - prev.gyro_z_radps) / dt_s if dt_s > 0.0 else 0.0
+        return w, ax, ay, w_dot
+
+    def _corrected_input(self) -> tuple[float, float, float]:
+        """Yaw rate and body acceleration of the vehicle origin: the IMU input less the
+        estimated biases, moved from the IMU mount to the origin.
 
         The IMU at ``car.imu_x_m`` ahead of the origin measures ``a_o + w_dot x r + w x (w x r)``;
         the differenced gyro for ``w_dot`` telescopes in the integrated velocity, so its noise
         does not accumulate.
         """
-        w = 0.5 * (prev.gyro_z_radps + cur.gyro_z_radps)
-        ax = 0.5 * (prev.accel_x_mps2 + cur.accel_x_mps2)
-        ay = 0.5 * (prev.accel_y_mps2 + cur.accel_y_mps2)
+        w, ax, ay, w_dot = self._input
+        if self._pd > POSE_DIM:
+            w -= float(self._xbuf[5])
+            ax -= float(self._xbuf[6])
+            ay -= float(self._xbuf[7])
         if self.cfg.imu_lever_arm and self.car.imu_x_m != 0.0:
             r = self.car.imu_x_m
-            w_dot = (cur.gyro_z_radps - prev.gyro_z_radps) / dt_s if dt_s > 0.0 else 0.0
             ax += w * w * r
             ay -= w_dot * r
         return w, ax, ay
 
     def _propagate(self, dt: float) -> None:
-        w, ax, ay = self._input
+        w, ax, ay = self._corrected_input()
         c = self.cfg
         k = 0.5 * dt * dt if self._heading_seed else 0.5 * dt
+        pd = self._pd
         pose = self._xbuf[:POSE_DIM]
-        new, f, g = motion_model(pose, w, ax, ay, dt, k)
+        new, f5, g = motion_model(pose, w, ax, ay, dt, k)
         self.odometer_m += dt * math.hypot(pose[3], pose[4])
         self._xbuf[:POSE_DIM] = new
         q_u = np.array([c.gyro_noise_density_radps_rthz ** 2,
                         c.accel_noise_density_mps2_rthz ** 2,
                         c.accel_noise_density_mps2_rthz ** 2]) / dt
-        pxx = self._pbuf[:POSE_DIM, :POSE_DIM]
-        new_pxx = f @ pxx @ f.T + (g * q_u) @ g.T
-        self._pbuf[:POSE_DIM, :POSE_DIM] = 0.5 * (new_pxx + new_pxx.T)
+        pxx = self._pbuf[:pd, :pd]
+        if pd == POSE_DIM:
+            f = f5
+            new_pxx = f @ pxx @ f.T + (g * q_u) @ g.T
+        else:
+            # The inputs are (measurement - bias): d new / d bias = -G (lever-arm terms of the
+            # gyro bias neglected: w^2 r changes by 2 w r b, far below the noise).
+            f = np.eye(pd)
+            f[:POSE_DIM, :POSE_DIM] = f5
+            f[:POSE_DIM, POSE_DIM:] = -g
+            new_pxx = f @ pxx @ f.T
+            new_pxx[:POSE_DIM, :POSE_DIM] += (g * q_u) @ g.T
+            walk = np.array([c.gyro_bias_walk_radps_rths, c.accel_bias_walk_mps2_rths,
+                             c.accel_bias_walk_mps2_rths]) ** 2 * dt
+            new_pxx[POSE_DIM:, POSE_DIM:] += np.diag(walk)
+        self._pbuf[:pd, :pd] = 0.5 * (new_pxx + new_pxx.T)
         self._f_acc = f @ self._f_acc
         self._f_pending = True
 
@@ -416,9 +473,14 @@ class EkfSlam:
     # ----------------------------------------------------------------------------------------
 
     def update_odometry(self, ws: WheelSpeeds, steer: SteeringAngle | None = None) -> None:
-        """Wheel odometry: the rear axle's forward speed and zero lateral velocity.
+        """Wheel odometry: the rear axle's forward speed and its lateral velocity.
 
-        ``steer`` is accepted for the interface but not needed (the yaw rate is the gyro's).
+        The lateral velocity of the rear axle is not zero in a corner: the rear tyres run at a
+        slip angle ``alpha = rear_slip_rad_per_mps2 * a_y`` (their cornering stiffness), so the
+        axle slides outwards at ``vy = -vx * alpha``, ``a_y = vx * w``. The pseudo-measurement is
+        ``vy + k vx^2 w = 0`` (``k = rear_slip_rad_per_mps2``; zero gives the plain
+        non-holonomic constraint). ``steer`` is accepted for the interface but not needed (the
+        yaw rate is the gyro's).
         """
         del steer
         if not self.cfg.use_odometry:
@@ -430,10 +492,23 @@ class EkfSlam:
         self.predict_to(ws.timestamp_s)
         _, _, yaw, vx, vy = self._xbuf[:POSE_DIM]
         c, s = math.cos(yaw), math.sin(yaw)
-        h = np.array([[-s * vx + c * vy, c, s], [-c * vx - s * vy, -s, c]])
-        pred = np.array([c * vx + s * vy, -s * vx + c * vy])
+        vxb, vyb = c * vx + s * vy, -s * vx + c * vy
+        k = self.cfg.rear_slip_rad_per_mps2
+        w = self._corrected_input()[0]
+        # d vxb / d (yaw, vx, vy) and d vyb / d (yaw, vx, vy)
+        dvxb = np.array([vyb, c, s])
+        dvyb = np.array([-vxb, -s, c])
+        lat = dvyb + 2.0 * k * vxb * w * dvxb
+        biased = self._pd > POSE_DIM
+        h = np.zeros((2, 4 if biased else 3))
+        h[0, :3] = dvxb
+        h[1, :3] = lat
+        if biased:
+            h[1, 3] = -k * vxb * vxb        # w = gyro - bias
+        pred = np.array([vxb, vyb + k * vxb * vxb * w])
         r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2, self.cfg.lateral_velocity_sigma_mps ** 2])
-        self._update(np.array([2, 3, 4]), h, np.array([v, 0.0]) - pred, r)
+        cols = np.array([2, 3, 4, 5]) if biased else np.array([2, 3, 4])
+        self._update(cols, h, np.array([v, 0.0]) - pred, r)
         self.stats["odometry_updates"] += 1
 
     def update_gps_xy(self, xy_world_m: FloatArray, cov: FloatArray,
@@ -486,7 +561,7 @@ class EkfSlam:
     def _landmark_blocks(self, idx: NDArray[np.int64]) -> tuple[FloatArray, FloatArray]:
         """Cross covariances pose(3)-landmark (M, 3, 2) and landmark blocks (M, 2, 2)."""
         p = self._pbuf
-        c0 = POSE_DIM + 2 * idx
+        c0 = self._pd + 2 * idx
         ppl = np.stack([p[:3, c0].T, p[:3, c0 + 1].T], axis=2)
         pll = np.empty((idx.size, 2, 2))
         pll[:, 0, 0] = p[c0, c0]
@@ -536,7 +611,7 @@ class EkfSlam:
             cy, sy = math.cos(yaw), math.sin(yaw)
             vb = np.array([cy * vxw + sy * vyw, -sy * vxw + cy * vyw])
             # z_T = R(-w dt) z_i - R(-w dt / 2) v_body dt (the car moved along an arc).
-            ang = self._input[0] * dt
+            ang = self._corrected_input()[0] * dt
             ca, sa = np.cos(ang), np.sin(ang)
             ch, sh = np.cos(0.5 * ang), np.sin(0.5 * ang)
             z = np.stack([ca * z[:, 0] + sa * z[:, 1] - dt * (ch * vb[0] + sh * vb[1]),
@@ -550,7 +625,7 @@ class EkfSlam:
         near_any = np.zeros(n_det, bool)
         m = self.n_landmarks
         if m:
-            lm_xy = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+            lm_xy = self._xbuf[self._pd: self._n].reshape(-1, 2)
             reach = c.max_range_m + 3.0
             dist = np.hypot(lm_xy[:, 0] - self._xbuf[0], lm_xy[:, 1] - self._xbuf[1])
             cand = np.flatnonzero(self._active_mask() & (dist <= reach))
@@ -589,9 +664,9 @@ class EkfSlam:
     def _apply_cone_update(self, z: FloatArray, r: FloatArray, lm: NDArray[np.int64]) -> bool:
         """One batched update for detections ``z`` (a, 2) of landmarks ``lm`` (a,)."""
         a = lm.size
-        lm_xy = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)[lm]
+        lm_xy = self._xbuf[self._pd: self._n].reshape(-1, 2)[lm]
         zhat, hp, hl = observation_model(self._xbuf[:3], lm_xy)
-        cols = np.concatenate([np.arange(3), (POSE_DIM + 2 * lm[:, None] + np.arange(2)).ravel()])
+        cols = np.concatenate([np.arange(3), (self._pd + 2 * lm[:, None] + np.arange(2)).ravel()])
         h = np.zeros((2 * a, 3 + 2 * a))
         h[:, :3] = hp.reshape(2 * a, 3)
         rows_i = np.arange(2 * a)
@@ -685,7 +760,7 @@ class EkfSlam:
         n = self._n
         keep_lm = np.ones(self.n_landmarks, bool)
         keep_lm[lm] = False
-        keep = np.concatenate([np.ones(POSE_DIM, bool), np.repeat(keep_lm, 2)])
+        keep = np.concatenate([np.ones(self._pd, bool), np.repeat(keep_lm, 2)])
         idx = np.flatnonzero(keep)
         x = self._xbuf[:n][idx]
         p = self._pbuf[:n, :n][np.ix_(idx, idx)]
@@ -721,7 +796,7 @@ class EkfSlam:
         cy, sy = math.cos(yaw), math.sin(yaw)
         wx = px + cy * arr[:, 0] - sy * arr[:, 1]
         wy = py + sy * arr[:, 0] + cy * arr[:, 1]
-        lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+        lm = self._xbuf[self._pd: self._n].reshape(-1, 2)
         d = np.hypot(wx[:, None] - lm[None, :, 0], wy[:, None] - lm[None, :, 1])
         cost = np.where(d <= self.cfg.colour_gate_m, d, _BIG)
         rows, cols = linear_sum_assignment(cost)
@@ -775,7 +850,7 @@ class EkfSlam:
         old = np.flatnonzero(big & (age_seen > c.unseen_travel_m))
         if new.size < c.min_big_cone_pairs or old.size < c.min_big_cone_pairs:
             return False
-        lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+        lm = self._xbuf[self._pd: self._n].reshape(-1, 2)
         if new.size < old.size:
             yaw = float(self._xbuf[2])
             ahead = ((lm[old] - self._xbuf[:2]) @ np.array([math.cos(yaw), math.sin(yaw)]))
@@ -807,7 +882,7 @@ class EkfSlam:
         drift is expected smaller). Returns landmark index arrays (old, new).
         """
         c = self.cfg
-        lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+        lm = self._xbuf[self._pd: self._n].reshape(-1, 2)
         old_xy, new_xy = lm[old], lm[new]
         p = self.P
         best: tuple[int, float, NDArray[np.int64], NDArray[np.int64]] | None = None
@@ -816,7 +891,7 @@ class EkfSlam:
                 t = old_xy[i] - new_xy[j]
                 if math.hypot(*t) > c.big_cone_search_m:
                     continue
-                ci, cj = POSE_DIM + 2 * int(old[i]), POSE_DIM + 2 * int(new[j])
+                ci, cj = self._pd + 2 * int(old[i]), self._pd + 2 * int(new[j])
                 cov = (p[ci:ci + 2, ci:ci + 2] + p[cj:cj + 2, cj:cj + 2]
                        - p[ci:ci + 2, cj:cj + 2] - p[cj:cj + 2, ci:ci + 2])
                 cov = cov * c.closure_covariance_inflation + np.eye(2) * 1e-4
@@ -839,10 +914,10 @@ class EkfSlam:
     def _merge(self, keep: NDArray[np.int64], drop: NDArray[np.int64]) -> None:
         """Same-point measurement ``l_keep - l_drop = 0`` then delete ``drop`` (seed 5.3.2)."""
         a = keep.size
-        cols = np.concatenate([(POSE_DIM + 2 * keep[:, None] + np.arange(2)).ravel(),
-                               (POSE_DIM + 2 * drop[:, None] + np.arange(2)).ravel()])
+        cols = np.concatenate([(self._pd + 2 * keep[:, None] + np.arange(2)).ravel(),
+                               (self._pd + 2 * drop[:, None] + np.arange(2)).ravel()])
         h = np.hstack([np.eye(2 * a), -np.eye(2 * a)])
-        lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+        lm = self._xbuf[self._pd: self._n].reshape(-1, 2)
         y = -(lm[keep] - lm[drop]).ravel()
         r = np.eye(2 * a) * self.cfg.same_point_sigma_m ** 2
         self._update(cols, h, y, r)
@@ -866,7 +941,7 @@ class EkfSlam:
             cand = np.flatnonzero(self._last_seen_m < self._first_seen_m[j])
             if cand.size == 0:
                 continue
-            lm = self._xbuf[POSE_DIM: self._n].reshape(-1, 2)
+            lm = self._xbuf[self._pd: self._n].reshape(-1, 2)
             d = np.hypot(lm[cand, 0] - lm[j, 0], lm[cand, 1] - lm[j, 1])
             close = d <= c.merge_distance_m
             if not np.any(close):
@@ -874,7 +949,7 @@ class EkfSlam:
             cand, d = cand[close], d[close]
             k = int(cand[np.argmin(d)])
             p = self.P
-            cj, ck = POSE_DIM + 2 * j, POSE_DIM + 2 * k
+            cj, ck = self._pd + 2 * j, self._pd + 2 * k
             s = (p[cj:cj + 2, cj:cj + 2] + p[ck:ck + 2, ck:ck + 2]
                  - p[cj:cj + 2, ck:ck + 2] - p[ck:ck + 2, cj:cj + 2])
             s += np.eye(2) * c.same_point_sigma_m ** 2
@@ -897,7 +972,7 @@ class EkfSlam:
             timestamp_s=self.t_s if self.t_s is not None else 0.0,
             x_m=x, y_m=y, yaw_rad=yaw,
             vx_mps=c * vx + s * vy, vy_mps=-s * vx + c * vy,
-            yaw_rate_radps=self._input[0],
+            yaw_rate_radps=self._corrected_input()[0],
             covariance=self._pbuf[:3, :3].copy(),
         )
 
@@ -907,7 +982,7 @@ class EkfSlam:
         if m == 0:
             return ConeMap.empty()
         self._flush()
-        c0 = POSE_DIM + 2 * np.arange(m)
+        c0 = self._pd + 2 * np.arange(m)
         cov = np.empty((m, 2, 2))
         p = self._pbuf
         cov[:, 0, 0] = p[c0, c0]

@@ -71,6 +71,13 @@ class SimSettings:
     imu_rate_hz: float = 200.0
     gyro_noise_density_radps_rthz: float = 2.5e-4
     accel_noise_density_mps2_rthz: float = 5.0e-3
+    gyro_bias_radps: float = 0.002
+    """Constant gyro z bias (the project simulator draws one with sigma 0.002 rad/s)."""
+    accel_bias_mps2: tuple[float, float] = (0.1, -0.05)
+    rear_slip_rad_per_mps2: float = 0.0073
+    """The rear axle's slip angle per lateral acceleration (rad per m/s^2), as the project
+    simulator's tyres (rear cornering stiffness 14 per unit load): the heading leads the course
+    by atan(k a_y) in a corner."""
     wheel_rate_hz: float = 100.0
     wheel_sigma_mps: float = 0.03
     gps_rate_hz: float = 10.0
@@ -103,10 +110,20 @@ class Trajectory:
     lap_length_m: float
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Where the car started in the scenario's original frame (x_m, y_m, yaw_rad)."""
+    slip_rad_per_mps2: float = 0.0
+    """Rear-axle slip angle per lateral acceleration: yaw = course + atan(k v^2 kappa)."""
 
     def state(self, t_s: FloatArray) -> dict[str, FloatArray]:
-        """Pose, speed, yaw rate and body accelerations of the rear axle at times (K,)."""
+        """Pose, path speed ``v``, body velocities ``vx``/``vy``, yaw rate (``omega``, its
+        derivative ``omega_dot``) and body accelerations ``ax``/``ay`` of the rear axle at times
+        (K,)."""
         t = np.asarray(t_s, np.float64)
+        out = self._state(t)
+        h = 1.0e-3
+        out["omega_dot"] = (self._state(t + h)["omega"] - self._state(t - h)["omega"]) / (2 * h)
+        return out
+
+    def _state(self, t: FloatArray) -> dict[str, FloatArray]:
         s = np.interp(t, self.t_s, self.s_m) % self.lap_length_m
         v = np.interp(t, self.t_s, self.v_mps)
         a = np.interp(t, self.t_s, self.a_mps2)
@@ -116,10 +133,17 @@ class Trajectory:
         norm = np.hypot(dx, dy)
         kappa = (dx * ddy - dy * ddx) / norm ** 3
         dkappa = (dx * d3y - dy * d3x) / norm ** 4
+        k = self.slip_rad_per_mps2
+        lat = v * v * kappa                        # lateral acceleration (m/s^2)
+        dlat = 2.0 * v * a * kappa + v ** 3 * dkappa
+        beta = -np.arctan(k * lat)                 # velocity direction relative to the heading
+        omega = v * kappa + k * dlat / (1.0 + (k * lat) ** 2)
+        cb, sb = np.cos(beta), np.sin(beta)
         return {
-            "x": self.spline_x(s), "y": self.spline_y(s), "yaw": np.arctan2(dy, dx),
-            "v": v, "a": a, "kappa": kappa, "omega": v * kappa,
-            "omega_dot": a * kappa + v * v * dkappa,
+            "x": self.spline_x(s), "y": self.spline_y(s), "yaw": np.arctan2(dy, dx) - beta,
+            "v": v, "a": a, "kappa": kappa, "omega": omega,
+            "vx": v * cb, "vy": v * sb,
+            "ax": a * cb - lat * sb, "ay": a * sb + lat * cb,
         }
 
 
@@ -301,7 +325,8 @@ def make_trajectory(scenario: Scenario, settings: SimSettings) -> Trajectory:
     t_arr, s_arr, v_arr = np.array(t_list), np.array(s_list), np.array(v_list)
     a_arr = np.gradient(v_arr, t_arr)
     a_arr = np.convolve(a_arr, np.ones(21) / 21, mode="same")
-    return Trajectory(t_arr, s_arr, v_arr, a_arr, spline_x, spline_y, lap, start)
+    return Trajectory(t_arr, s_arr, v_arr, a_arr, spline_x, spline_y, lap, start,
+                      settings.rear_slip_rad_per_mps2)
 
 
 def simulate(scenario: Scenario, car: CarConfig, settings: SimSettings | None = None,
@@ -321,9 +346,11 @@ def simulate(scenario: Scenario, car: CarConfig, settings: SimSettings | None = 
     r = car.imu_x_m
     sg = st.gyro_noise_density_radps_rthz * math.sqrt(st.imu_rate_hz)
     sa = st.accel_noise_density_mps2_rthz * math.sqrt(st.imu_rate_hz)
-    gz = k["omega"] + rng.normal(0, sg, t_imu.size)
-    ax = k["a"] - k["omega"] ** 2 * r + rng.normal(0, sa, t_imu.size)
-    ay = k["v"] ** 2 * k["kappa"] + k["omega_dot"] * r + rng.normal(0, sa, t_imu.size)
+    gz = k["omega"] + st.gyro_bias_radps + rng.normal(0, sg, t_imu.size)
+    ax = (k["ax"] - k["omega"] ** 2 * r + st.accel_bias_mps2[0]
+          + rng.normal(0, sa, t_imu.size))
+    ay = (k["ay"] + k["omega_dot"] * r + st.accel_bias_mps2[1]
+          + rng.normal(0, sa, t_imu.size))
     for i, t in enumerate(t_imu):
         events.append((float(t), "imu", ImuSample(float(t), float(ax[i]), float(ay[i]), 9.81,
                                                   0.0, 0.0, float(gz[i]))))
@@ -334,7 +361,7 @@ def simulate(scenario: Scenario, car: CarConfig, settings: SimSettings | None = 
     noise = rng.normal(0, st.wheel_sigma_mps, (t_w.size, 4))
     steer = np.arctan(car.wheelbase_m * k["kappa"])
     for i, t in enumerate(t_w):
-        v, w = float(k["v"][i]), float(k["omega"][i])
+        v, w = float(k["vx"][i]), float(k["omega"][i])
         front = v / max(math.cos(float(steer[i])), 0.5)
         events.append((float(t), "wheels", WheelSpeeds(
             float(t), max(front - w * half + noise[i, 0], 0.0),
