@@ -65,7 +65,8 @@ class StageTimes:
         self.samples[stage].append(seconds)
 
     def summary_ms(self) -> dict[str, dict[str, float]]:
-        """Per stage: mean, p99 and max in milliseconds."""
+        """Per stage: mean, p99 and max in milliseconds, how many times it ran (``count``) and
+        its total time (``total_s``)."""
         out: dict[str, dict[str, float]] = {}
         for stage, values in self.samples.items():
             arr = np.asarray(values) * 1e3
@@ -73,6 +74,8 @@ class StageTimes:
                 "mean_ms": round(float(arr.mean()), 4),
                 "p99_ms": round(float(np.percentile(arr, 99)), 4),
                 "max_ms": round(float(arr.max()), 4),
+                "count": int(arr.size),
+                "total_s": round(float(arr.sum()) / 1e3, 4),
             }
         return out
 
