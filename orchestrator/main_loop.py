@@ -165,11 +165,13 @@ class Main:
 
         t5 = time.perf_counter()
         self.health = self.sensors.health(now_s)
+        t5h = time.perf_counter()
+        self.times.add("health", t5h - t5)
         self.command = self.controller.command(
             now_s, self.map_state.pose, self.plan, self.health, self.remote
         )
         t6 = time.perf_counter()
-        self.times.add("controller", t6 - t5)
+        self.times.add("controller", t6 - t5h)
 
         self._emit(COMMAND, self.command, now_s)
         if now_s + 1e-9 >= self._next_output_s:
