@@ -75,7 +75,11 @@ class UkfConfig:
     lateral_model_sigma_mps2: float = 1.0
     """Unmodelled lateral dynamics (tangential lever-arm term, slip build-up): vy process noise."""
     lateral_velocity_sigma_mps: float = 0.05
-    """Without GNSS velocity the rear axle's lateral speed is held at zero (seed 001, II.A)."""
+    """Without GNSS velocity the rear axle's lateral speed is held at zero (seed 001, II.A),
+    apart from its tyres' slip (``rear_slip_rad_per_mps2``)."""
+    rear_slip_rad_per_mps2: float = 0.0073
+    """Rear-axle slip angle per lateral acceleration (rad per m/s^2): the lateral constraint is
+    ``vy = -k vx^2 w``; see SlamConfig.rear_slip_rad_per_mps2. 0: the seed's zero."""
     max_predict_dt_s: float = 0.05
     initial_position_sigma_m: float = 0.01
     initial_yaw_sigma_rad: float = 0.001

@@ -130,6 +130,13 @@ class Mapper:
         if self.slam is not None and not self.map_frozen and known_map is None:
             self.ukf.reset(self.slam.pose())
             self.ukf.x[3:] = self._slam_velocity()
+            # The SLAM estimated the IMU biases on the way (the car may never have stood
+            # still for the UKF's static calibration): the UKF goes on with them.
+            bg, bax, bay = self.slam.imu_bias
+            if self.slam.vehicle_dim > 5:
+                self.ukf.calibrating = False
+                self.ukf.gyro_bias_radps = bg
+                self.ukf.accel_bias_mps2 = np.array([bax, bay])
         self._frozen_map = cone_map
         votes = np.zeros((len(cone_map), N_COLOURS))
         known = cone_map.colour > int(ConeColour.UNKNOWN)
@@ -317,9 +324,16 @@ class Mapper:
         recent = self._recent_imu
         while recent and recent[0].timestamp_s <= t_lag:
             recent.popleft()
-        if recent and not self.ukf.calibrating:
-            pred, t = predict_forward(state, t_lag, recent, self.ukf.gyro_bias_radps,
-                                      self.ukf.accel_bias_mps2, self.config.car.imu_x_m)
+        if self._slam_active() and self.slam.vehicle_dim > 5:
+            bg, bax, bay = self.slam.imu_bias
+            gyro_bias, accel_bias = bg, np.array([bax, bay])
+            calibrating = False
+        else:
+            gyro_bias, accel_bias = self.ukf.gyro_bias_radps, self.ukf.accel_bias_mps2
+            calibrating = self.ukf.calibrating
+        if recent and not calibrating:
+            pred, t = predict_forward(state, t_lag, recent, gyro_bias, accel_bias,
+                                      self.config.car.imu_x_m)
         else:  # standing still (calibrating) or nothing newer: the lagged state holds
             pred = np.asarray(state, np.float64)
             t = max(t_lag, recent[-1].timestamp_s) if recent else t_lag

@@ -220,7 +220,14 @@ class UkfLocaliser:
         self.count("imu", "applied")
         if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
             self._last_lateral_s = t
-            self._update_linear("lateral", np.array([-self.x[IVY]]), _row(IVY),
+            # The rear axle slides outwards by its tyres' slip angle k a_y, a_y = vx w:
+            # h(x) = vy + k vx^2 w = 0.
+            k = cfg.rear_slip_rad_per_mps2
+            vx, w = float(self.x[IVX]), float(self.x[IW])
+            H = _row(IVY).copy()
+            H[0, IVX] = 2.0 * k * vx * w
+            H[0, IW] = k * vx * vx
+            self._update_linear("lateral", np.array([-(self.x[IVY] + k * vx * vx * w)]), H,
                                 np.array([[cfg.lateral_velocity_sigma_mps**2]]), gate=math.inf)
 
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
