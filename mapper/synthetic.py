@@ -3,7 +3,7 @@
 Not the project's simulator (simulator/ emits raw hardware bytes): this one makes the parsed
 readings the Mapper takes, directly, with the same noise figures as the simulator's defaults
 (``simulator/config.py``) where it has them, so the estimator can be checked against truth
-without the sensor pipeline. A kinematic car (rear-axle origin, a small slip at the rear axle)
+without the sensor pipeline. A kinematic car (rear-axle origin, the rear axle's tyre slip)
 follows a path at a speed profile after standing still at the start:
 
 - IMU 200 Hz: specific force at ``car.imu_x_m`` (centripetal and tangential terms), white noise
@@ -83,8 +83,9 @@ class DriveNoise:
     camera_sigma_m: float = 0.05
     camera_sigma_per_m: float = 0.02
     colour_error_prob: float = 0.02
-    slip_per_lateral_accel: float = 0.01
-    """Rear-axle lateral slip speed per lateral acceleration (m/s per m/s^2)."""
+    rear_slip_rad_per_mps2: float = 0.0073
+    """Rear-axle slip angle per lateral acceleration (rad per m/s^2): the axle slides outwards
+    at ``vx * k * a_y``, as the project simulator's tyres (cornering stiffness 14 per load)."""
 
 
 @dataclass(slots=True)
@@ -233,7 +234,7 @@ def make_drive(
     yaw_rate = v * kappa
     yaw = np.concatenate([[0.0], np.cumsum(0.5 * (yaw_rate[1:] + yaw_rate[:-1]) * dt)])
     ay_lat = v * yaw_rate
-    vy = -nz.slip_per_lateral_accel * ay_lat
+    vy = -nz.rear_slip_rad_per_mps2 * v * ay_lat
     vx = v
     vxw = vx * np.cos(yaw) - vy * np.sin(yaw)
     vyw = vx * np.sin(yaw) + vy * np.cos(yaw)
