@@ -284,7 +284,7 @@ class LiveMain:
         summary: dict[str, Any] = {
             "stop_reason": stop_reason,
             "finished": self.controller.state == AsState.FINISHED,
-            "laps_completed": getattr(self.controller, "laps_completed", None),
+            "laps_completed": self.shared.plan.lap if self.shared.plan is not None else 0,
             "loop_closure": {"closed": bool(map_state is not None and map_state.loop_closed)},
             "landmarks": len(map_state.cones) if map_state is not None else 0,
             "timing": timing,
