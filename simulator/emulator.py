@@ -53,6 +53,11 @@ class EmulatorOptions:
     workdir: Path | None = None
     seed: int | None = None
     step_s: float = 0.005
+    wait_for_stack_s: float = 60.0
+    """The car stands, its clock stopped, until the stack opens the CAN adapter (slcan ``O``),
+    at most this long (0: start at once): the person drives only once the stack is running."""
+    lead_in_s: float = 1.0
+    """Then it stands this long with its sensors streaming before the exploration lap starts."""
 
 
 class HardwareEmulator:
@@ -156,6 +161,7 @@ class HardwareEmulator:
 
         for s in previous:
             signal.signal(s, on_signal)
+        self._wait_for_stack(options.wait_for_stack_s)
         clock = RealClock()
         stop_reason = "signal"
         idle_since: float | None = None
@@ -168,10 +174,14 @@ class HardwareEmulator:
                 self._take_commands(t_s, t_s)
                 truth = self.world.truth()
                 stack = self._stack_command(t_s, t_s)
-                applied = self.person.command(t_s, truth, stack)
+                if t_s < options.lead_in_s:
+                    applied: ActuatorCommand | None = ActuatorCommand.full_brake(t_s)
+                else:
+                    applied = self.person.command(t_s, truth, stack)
                 self._dispatch(self.world.step_to(t_s, applied))
                 truth = self.world.truth()
-                self.person.observe(t_s, truth)
+                if t_s >= options.lead_in_s:
+                    self.person.observe(t_s, truth)
                 if options.seconds is not None and t_s >= options.seconds:
                     stop_reason = "time limit"
                     break
@@ -195,6 +205,20 @@ class HardwareEmulator:
         if options.summary is not None:
             options.summary.write_text(json.dumps(summary, indent=2) + "\n")
         return summary
+
+    def _wait_for_stack(self, timeout_s: float) -> None:
+        """Answer the adapter's commands until the stack opens the CAN bus (or ``timeout_s``)."""
+        if timeout_s <= 0.0:
+            return
+        end = time.monotonic() + timeout_s
+        while not self._stop and not self.can.is_open and time.monotonic() < end:
+            self.can.poll(0.0)
+            time.sleep(0.01)
+        if self.can.is_open:
+            log.info("the stack opened the CAN adapter: the car starts")
+        elif not self._stop:
+            log.warning("no stack opened the CAN adapter in %.0f s: the car starts anyway",
+                        timeout_s)
 
     def summary(self, stop_reason: str, elapsed_s: float) -> dict[str, Any]:
         person = self.person
