@@ -200,6 +200,11 @@ class SlamConfig:
     """Accelerometer bias random walk (m/s^2 per sqrt(s)), with slow pitch/roll leakage."""
     use_odometry: bool = True
     use_gps: bool = True
+    gps_sigma_m: float = 20.0
+    """GNSS position noise for the SLAM (m), far above the receiver's 2.5 m: its error is
+    correlated over minutes (a wandering bias, and the world frame's heading estimated from
+    the course), so it only bounds gross drift and must not bend a centimetre cone map
+    (measured in the closed loop: any weight near the white-noise figure makes the pose worse)."""
     gps_gate_probability: float = 0.9999
     colour_gate_m: float = 1.0
     """Camera cones vote for the nearest landmark within this distance (world frame)."""

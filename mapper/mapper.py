@@ -219,7 +219,7 @@ class Mapper:
                   if math.isfinite(fix.course_rad) else math.nan)
         self.ukf.update_gnss_velocity(fix.speed_mps, course)
         if self._slam_active():
-            self.slam.update_gps_xy(xy, np.eye(2) * cfg.gnss_position_sigma_m**2,
+            self.slam.update_gps_xy(xy, np.eye(2) * self.config.mapper.slam.gps_sigma_m**2,
                                     fix.timestamp_s)
 
     def _on_lidar(self, sweep: LidarCones) -> None:
@@ -234,8 +234,10 @@ class Mapper:
         if not cones:
             return
         x = self.ukf.x
-        xy_vehicle = compensate_motion(cones, sweep.timestamp_s, float(x[3]), float(x[4]),
-                                       float(x[5]))
+        # To the UKF's own time (its last IMU sample, up to one IMU period before the sweep's
+        # stamp): the detections are compared with the pose at that time.
+        t_ref = self.ukf.t_s if self.ukf.t_s is not None else sweep.timestamp_s
+        xy_vehicle = compensate_motion(cones, t_ref, float(x[3]), float(x[4]), float(x[5]))
         if self.map_frozen:
             assert self._frozen_map is not None
             self.ukf.update_cones_on_map(cones, self._frozen_map, xy_vehicle)
