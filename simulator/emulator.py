@@ -93,6 +93,11 @@ class HardwareEmulator:
         self.last_command_wall_s = -math.inf
         self.ever_commanded = False
         self._stop = False
+        self.watchdog_stop: dict[str, float] | None = None
+        """When the actuator frames stopped while the stack drove: time (s), speed (m/s), and
+        once the car stood, the stop's time (s) and distance (m)."""
+        self._watchdog_xy = (0.0, 0.0)
+        self.final_speed_mps = 0.0
 
     # ------------------------------------------------------------------ config for `drive`
     def drive_config(self) -> dict[str, Any]:
@@ -182,6 +187,7 @@ class HardwareEmulator:
                 truth = self.world.truth()
                 if t_s >= options.lead_in_s:
                     self.person.observe(t_s, truth)
+                self._track_watchdog(t_s, truth)
                 if options.seconds is not None and t_s >= options.seconds:
                     stop_reason = "time limit"
                     break
@@ -205,6 +211,24 @@ class HardwareEmulator:
         if options.summary is not None:
             options.summary.write_text(json.dumps(summary, indent=2) + "\n")
         return summary
+
+    def _track_watchdog(self, t_s: float, truth: Any) -> None:
+        """Record the first time the watchdog brakes a car the stack was driving, and its stop."""
+        speed = math.hypot(truth.vx_mps, truth.vy_mps)
+        self.final_speed_mps = speed
+        stale = t_s - self.last_command_wall_s > ACTUATOR_TIMEOUT_S
+        if (self.watchdog_stop is None and stale and self.ever_commanded
+                and self.person.phase == Phase.AUTONOMOUS):
+            self.watchdog_stop = {"time_s": round(t_s, 3), "speed_mps": round(speed, 3),
+                                  "last_frame_s": round(self.last_command_wall_s, 3)}
+            self._watchdog_xy = (truth.x_m, truth.y_m)
+            log.warning("no actuator frame for %.0f ms at %.1f m/s: braking to a stop",
+                        ACTUATOR_TIMEOUT_S * 1e3, speed)
+        stop = self.watchdog_stop
+        if stop is not None and "stop_time_s" not in stop and speed < 0.05:
+            stop["stop_time_s"] = round(t_s - stop["time_s"], 3)
+            stop["stop_distance_m"] = round(math.hypot(truth.x_m - self._watchdog_xy[0],
+                                                       truth.y_m - self._watchdog_xy[1]), 3)
 
     def _wait_for_stack(self, timeout_s: float) -> None:
         """Answer the adapter's commands until the stack opens the CAN bus (or ``timeout_s``)."""
@@ -239,6 +263,8 @@ class HardwareEmulator:
             "dropped_serial_bytes": self.gps.dropped_bytes + self.imu.dropped_bytes,
             "can_bad_lines": self.can.bad_lines,
             "wall_time_s": round(elapsed_s, 3),
+            "final_speed_mps": round(self.final_speed_mps, 3),
+            "watchdog_stop": self.watchdog_stop,
         }
 
 
