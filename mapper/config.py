@@ -80,6 +80,11 @@ class UkfConfig:
     rear_slip_rad_per_mps2: float = 0.0073
     """Rear-axle slip angle per lateral acceleration (rad per m/s^2): the lateral constraint is
     ``vy = -k vx^2 w``; see SlamConfig.rear_slip_rad_per_mps2. 0: the seed's zero."""
+    rear_slip_saturation: bool = True
+    """The slip angle grows as atanh(a_y / car.max_lateral_accel_mps2) near the grip limit
+    (tanh tyre law); False: linear in a_y."""
+    lateral_slip_sigma_fraction: float = 0.1
+    """The lateral constraint's sigma grows by this fraction of the modelled slip speed."""
     max_predict_dt_s: float = 0.05
     initial_position_sigma_m: float = 0.01
     initial_yaw_sigma_rad: float = 0.001
@@ -189,6 +194,11 @@ class SlamConfig:
     """Rear-axle slip angle per lateral acceleration (rad per m/s^2): the rear axle slides
     outwards at ``vx * k * a_y`` in a corner. ``1 / (C * g)`` with C the rear cornering
     stiffness per axle load (1/rad; 14 for the default car's tyres); 0 = no slip."""
+    rear_slip_saturation: bool = True
+    """The slip angle grows as atanh(a_y / car.max_lateral_accel_mps2) near the grip limit
+    (tanh tyre law); False: linear in a_y."""
+    lateral_slip_sigma_fraction: float = 0.1
+    """The lateral constraint's sigma grows by this fraction of the modelled slip speed."""
     imu_bias_states: bool = True
     """Estimate the gyro z and accelerometer x, y biases as states (the car may start moving
     without a standstill to calibrate them)."""

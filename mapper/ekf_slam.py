@@ -76,6 +76,7 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import MapperConfig
+from mapper.fusion import rear_slip_velocity
 
 log = logging.getLogger(__name__)
 
@@ -478,8 +479,9 @@ class EkfSlam:
         The lateral velocity of the rear axle is not zero in a corner: the rear tyres run at a
         slip angle ``alpha = rear_slip_rad_per_mps2 * a_y`` (their cornering stiffness), so the
         axle slides outwards at ``vy = -vx * alpha``, ``a_y = vx * w``. The pseudo-measurement is
-        ``vy + k vx^2 w = 0`` (``k = rear_slip_rad_per_mps2``; zero gives the plain
-        non-holonomic constraint). ``steer`` is accepted for the interface but not needed (the
+        ``vy = vy_slip(vx, w)`` (:func:`mapper.fusion.rear_slip_velocity`; a zero
+        ``rear_slip_rad_per_mps2`` gives the plain non-holonomic constraint), its noise growing
+        with the slip (``lateral_slip_sigma_fraction``). ``steer`` is accepted for the interface but not needed (the
         yaw rate is the gyro's).
         """
         del steer
@@ -493,20 +495,23 @@ class EkfSlam:
         _, _, yaw, vx, vy = self._xbuf[:POSE_DIM]
         c, s = math.cos(yaw), math.sin(yaw)
         vxb, vyb = c * vx + s * vy, -s * vx + c * vy
-        k = self.cfg.rear_slip_rad_per_mps2
         w = self._corrected_input()[0]
+        a_max = (self.car.max_lateral_accel_mps2 if self.cfg.rear_slip_saturation
+                 else math.inf)
+        vy_slip, d_vx, d_w = rear_slip_velocity(vxb, w, self.cfg.rear_slip_rad_per_mps2, a_max)
         # d vxb / d (yaw, vx, vy) and d vyb / d (yaw, vx, vy)
         dvxb = np.array([vyb, c, s])
         dvyb = np.array([-vxb, -s, c])
-        lat = dvyb + 2.0 * k * vxb * w * dvxb
         biased = self._pd > POSE_DIM
         h = np.zeros((2, 4 if biased else 3))
         h[0, :3] = dvxb
-        h[1, :3] = lat
+        h[1, :3] = dvyb - d_vx * dvxb
         if biased:
-            h[1, 3] = -k * vxb * vxb        # w = gyro - bias
-        pred = np.array([vxb, vyb + k * vxb * vxb * w])
-        r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2, self.cfg.lateral_velocity_sigma_mps ** 2])
+            h[1, 3] = d_w                    # w = gyro - bias
+        pred = np.array([vxb, vyb - vy_slip])
+        lat_sigma = (self.cfg.lateral_velocity_sigma_mps
+                     + self.cfg.lateral_slip_sigma_fraction * abs(vy_slip))
+        r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2, lat_sigma ** 2])
         cols = np.array([2, 3, 4, 5]) if biased else np.array([2, 3, 4])
         self._update(cols, h, np.array([v, 0.0]) - pred, r)
         self.stats["odometry_updates"] += 1

@@ -116,6 +116,36 @@ def predict_forward(state: FloatArray, t_from_s: float, samples: Sequence[ImuSam
     return np.array([x, y, wrap_angle(yaw), vx, vy, w]), t
 
 
+def rear_slip_velocity(vx_mps: float, yaw_rate_radps: float, slip_rad_per_mps2: float,
+                       max_lateral_accel_mps2: float = math.inf) -> tuple[float, float, float]:
+    """Lateral velocity (m/s) of the rear axle in a corner, and its derivatives with respect to
+    vx and the yaw rate: ``(vy, d vy / d vx, d vy / d w)``.
+
+    The rear tyres carry their share of the lateral force at a slip angle: for a tyre law
+    ``F / Fz = mu tanh(C alpha / mu)`` (C cornering stiffness per load, 1/rad) in a steady
+    corner ``F / Fz = a_y / g`` with ``a_y = vx w``, so ``alpha = k a_max atanh(a_y / a_max)``,
+    ``k = 1 / (C g)`` (``slip_rad_per_mps2``), ``a_max = mu g`` (the car's lateral limit);
+    linear ``alpha = k a_y`` for an infinite ``a_max``. The axle slides outwards at
+    ``vy = -vx alpha``.
+    """
+    k = slip_rad_per_mps2
+    if k == 0.0:
+        return 0.0, 0.0, 0.0
+    ay = vx_mps * yaw_rate_radps
+    if math.isfinite(max_lateral_accel_mps2) and max_lateral_accel_mps2 > 0.0:
+        a_max = max_lateral_accel_mps2
+        u = min(max(ay / a_max, -0.95), 0.95)
+        alpha = k * a_max * math.atanh(u)
+        gain = k / (1.0 - u * u) if abs(ay / a_max) < 0.95 else 0.0   # d alpha / d a_y
+    else:
+        alpha = k * ay
+        gain = k
+    vy = -vx_mps * alpha
+    d_vx = -alpha - vx_mps * gain * yaw_rate_radps
+    d_w = -vx_mps * gain * vx_mps
+    return vy, d_vx, d_w
+
+
 def compensate_motion(cones: Sequence[ConeDetection], t_ref_s: float, vx_mps: float,
                       vy_mps: float, yaw_rate_radps: float) -> FloatArray:
     """Vehicle-frame detections (N, 2) moved to the vehicle frame at ``t_ref_s``.

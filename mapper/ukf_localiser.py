@@ -54,6 +54,7 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import UkfConfig
+from mapper.fusion import rear_slip_velocity
 
 log = logging.getLogger(__name__)
 
@@ -222,13 +223,15 @@ class UkfLocaliser:
             self._last_lateral_s = t
             # The rear axle slides outwards by its tyres' slip angle k a_y, a_y = vx w:
             # h(x) = vy + k vx^2 w = 0.
-            k = cfg.rear_slip_rad_per_mps2
-            vx, w = float(self.x[IVX]), float(self.x[IW])
+            a_max = self.car.max_lateral_accel_mps2 if cfg.rear_slip_saturation else math.inf
+            vy_slip, d_vx, d_w = rear_slip_velocity(float(self.x[IVX]), float(self.x[IW]),
+                                                    cfg.rear_slip_rad_per_mps2, a_max)
             H = _row(IVY).copy()
-            H[0, IVX] = 2.0 * k * vx * w
-            H[0, IW] = k * vx * vx
-            self._update_linear("lateral", np.array([-(self.x[IVY] + k * vx * vx * w)]), H,
-                                np.array([[cfg.lateral_velocity_sigma_mps**2]]), gate=math.inf)
+            H[0, IVX] = -d_vx
+            H[0, IW] = -d_w
+            sigma = cfg.lateral_velocity_sigma_mps + cfg.lateral_slip_sigma_fraction * abs(vy_slip)
+            self._update_linear("lateral", np.array([vy_slip - self.x[IVY]]), H,
+                                np.array([[sigma**2]]), gate=math.inf)
 
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
         """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro."""
