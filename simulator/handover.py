@@ -22,21 +22,28 @@ class LapTimer:
     """Counts start-line crossings from the progress (m) along a closed track of length L (m).
 
     A crossing is a jump of the progress from the last quarter of the lap to the first quarter,
-    in the driving direction; its time is interpolated between the two samples.
+    in the driving direction, once the car has been in the middle half of the lap since the
+    previous crossing (or the start); its time is interpolated between the two samples.
     """
 
     lap_length_m: float
     crossings_s: list[float] = field(default_factory=list)
     _last_progress_m: float | None = None
     _last_t_s: float = 0.0
+    _half_way: bool = False
+    """The car has been in the middle half of the lap since the last crossing (or the start):
+    a car starting just behind the line does not count a lap when it rolls over it."""
 
     def update(self, t_s: float, progress_m: float) -> bool:
         """Feed one sample; True when the start line was crossed since the last one."""
         crossed = False
         last = self._last_progress_m
+        length = self.lap_length_m
+        if 0.25 * length <= progress_m <= 0.75 * length:
+            self._half_way = True
         if last is not None:
-            length = self.lap_length_m
-            if last > 0.75 * length and progress_m < 0.25 * length:
+            if last > 0.75 * length and progress_m < 0.25 * length and self._half_way:
+                self._half_way = False
                 ahead = (length - last) / max(length - last + progress_m, 1e-9)
                 self.crossings_s.append(self._last_t_s + ahead * (t_s - self._last_t_s))
                 crossed = True
