@@ -30,8 +30,18 @@ SAMPLE_MAX_SIM_TIME_S = 120.0
 """A limit for the simulation that makes the sample (its lap ends at the handover, ~50 s)."""
 
 
+SAMPLES_DIR_ENV = "FSD_SAMPLES_DIR"
+"""Environment variable naming another folder for the sample (tests, read-only installs)."""
+
+
 def samples_dir() -> Path:
-    """``recordings/samples/`` in the project (or a user cache folder if that is read-only)."""
+    """``recordings/samples/`` in the project (or a user cache folder if that is read-only;
+    or ``$FSD_SAMPLES_DIR``)."""
+    override = os.environ.get(SAMPLES_DIR_ENV)
+    if override:
+        folder = Path(override)
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
     here = Path(__file__).resolve().parent / "samples"
     try:
         here.mkdir(parents=True, exist_ok=True)
@@ -54,7 +64,7 @@ def sample_recording_path(make: bool = True) -> Path:
     return path
 
 
-def make_sample(path: Path) -> dict[str, Any]:
+def make_sample(path: Path, max_sim_time_s: float = SAMPLE_MAX_SIM_TIME_S) -> dict[str, Any]:
     """Simulate the exploration lap and write its recording to ``path`` (atomically: a half-made
     sample is never seen, and two processes making it at once both end with a whole file).
     Returns the run's summary (also written next to it: :func:`summary_path`)."""
@@ -65,7 +75,7 @@ def make_sample(path: Path) -> dict[str, Any]:
                 "(once; about 20 s)", path)
     start = time.perf_counter()
     config = AppConfig()
-    config.run.max_sim_time_s = SAMPLE_MAX_SIM_TIME_S
+    config.run.max_sim_time_s = max_sim_time_s
     path.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".making-", dir=path.parent))
     try:
