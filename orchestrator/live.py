@@ -101,6 +101,7 @@ class LiveMain:
         self.periods_s: list[float] = []
         self.autonomous_started = False
         self._lock = threading.Lock()
+        self._final_health: Any = None
 
     # ------------------------------------------------------------------ layers
     def _executive(self) -> None:
@@ -231,6 +232,9 @@ class LiveMain:
                 stop_reason = "; ".join(shared.errors)
         finally:
             shared.stop.set()
+            # Health as the loop last saw it (rates measured once the receivers stop would
+            # count the time after the end as silence).
+            self._final_health = self.sensors.health(self.clock.now_s())
             self._safe_stop()
             for thread in threads:
                 thread.join(1.0)
@@ -291,7 +295,7 @@ class LiveMain:
             "health": [
                 {"source": s.source, "rate_hz": round(s.rate_hz, 2), "errors": s.errors,
                  "rejects": dict(s.rejects)}
-                for s in self.sensors.health(self.clock.now_s()).sources
+                for s in self._final_health.sources
             ],
             "outputs_sha256": self.hasher.hexdigest(),
         }
