@@ -157,8 +157,6 @@ class HardwareEmulator:
     def run(self) -> dict[str, Any]:
         """Serve until ``seconds``, a signal, or the car standing idle after the stack is done."""
         options = self.options
-        if options.write_config is not None:
-            self.write_drive_config(options.write_config)
         previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 
         def on_signal(signum: int, _frame: Any) -> None:
@@ -166,6 +164,8 @@ class HardwareEmulator:
 
         for s in previous:
             signal.signal(s, on_signal)
+        if options.write_config is not None:  # after the handlers: a script may signal at once
+            self.write_drive_config(options.write_config)
         self._wait_for_stack(options.wait_for_stack_s)
         clock = RealClock()
         stop_reason = "signal"
