@@ -65,14 +65,17 @@ def test_bad_arguments_give_one_clear_line(tmp_path: Path) -> None:
 
 def test_sim_estop_while_driving(tmp_path: Path) -> None:
     """On the small oval the exploration lap ends ~16 s and the RES go comes ~19 s; an e-stop
-    at 24 s hits the car while the stack drives it."""
+    at 24 s hits the car while the stack drives it. Sensor faults earlier in the run (CAN
+    garbage, IMU NaNs, a GPS dropout) must not crash anything, and the replay of the run's
+    recording reproduces it."""
     if not OVAL.exists():
         pytest.skip(f"shared test data missing: {OVAL}")
     config = tmp_path / "c.toml"
     config.write_text("[run]\nmax_sim_time_s = 40.0\nrender = false\n")
     out = tmp_path / "run"
     proc = main_py("sim", "--config", str(config), "--track", str(OVAL), "--no-render",
-                   "--no-record", "--fault", "estop@24", "--out", str(out), "--json")
+                   "--fault", "estop@24", "--fault", "can-garbage@5:3", "--fault", "imu-nan@8:1",
+                   "--fault", "gps-dropout@2:5", "--out", str(out), "--json")
     assert proc.returncode == 0, proc.stderr
     summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
     assert summary["stop_reason"] != "timeout"
@@ -89,3 +92,8 @@ def test_sim_estop_while_driving(tmp_path: Path) -> None:
     assert (out / "run_log.npz").exists()
     printed = json.loads(proc.stdout[proc.stdout.find("{"):])
     assert printed["outputs_sha256"] == summary["outputs_sha256"]
+    # The faults are in the raw data: a replay reproduces the run, e-stop reaction included.
+    replay = main_py("replay", str(out / "recording.mcap"), "--max", "--json")
+    assert replay.returncode == 0, replay.stderr
+    replayed = json.loads(replay.stdout[replay.stdout.find("{"):])
+    assert replayed["outputs_sha256"] == summary["outputs_sha256"]
