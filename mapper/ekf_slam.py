@@ -481,8 +481,8 @@ class EkfSlam:
         axle slides outwards at ``vy = -vx * alpha``, ``a_y = vx * w``. The pseudo-measurement is
         ``vy = vy_slip(vx, w)`` (:func:`mapper.fusion.rear_slip_velocity`; a zero
         ``rear_slip_rad_per_mps2`` gives the plain non-holonomic constraint), its noise growing
-        with the slip (``lateral_slip_sigma_fraction``). ``steer`` is accepted for the interface but not needed (the
-        yaw rate is the gyro's).
+        with the slip (``lateral_slip_sigma_fraction``). ``steer`` is accepted for the
+        interface but not needed (the yaw rate is the gyro's).
         """
         del steer
         if not self.cfg.use_odometry:

@@ -76,8 +76,10 @@ class SimSettings:
     accel_bias_mps2: tuple[float, float] = (0.1, -0.05)
     rear_slip_rad_per_mps2: float = 0.0073
     """The rear axle's slip angle per lateral acceleration (rad per m/s^2), as the project
-    simulator's tyres (rear cornering stiffness 14 per unit load): the heading leads the course
-    by atan(k a_y) in a corner."""
+    simulator's tyres (rear cornering stiffness 14 per unit load), saturating as a tanh tyre at
+    ``grip_lateral_accel_mps2`` (the car's lateral limit): the heading leads the course by the
+    slip angle in a corner."""
+    grip_lateral_accel_mps2: float = 1.5 * 9.81
     wheel_rate_hz: float = 100.0
     wheel_sigma_mps: float = 0.03
     gps_rate_hz: float = 10.0
@@ -111,7 +113,9 @@ class Trajectory:
     start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Where the car started in the scenario's original frame (x_m, y_m, yaw_rad)."""
     slip_rad_per_mps2: float = 0.0
-    """Rear-axle slip angle per lateral acceleration: yaw = course + atan(k v^2 kappa)."""
+    """Rear-axle slip angle per lateral acceleration: yaw = course + atan(alpha), alpha =
+    k a_max atanh(a_y / a_max) (the tanh tyre law of mapper.fusion.rear_slip_velocity)."""
+    grip_lateral_accel_mps2: float = 1.5 * 9.81
 
     def state(self, t_s: FloatArray) -> dict[str, FloatArray]:
         """Pose, path speed ``v``, body velocities ``vx``/``vy``, yaw rate (``omega``, its
@@ -133,11 +137,14 @@ class Trajectory:
         norm = np.hypot(dx, dy)
         kappa = (dx * ddy - dy * ddx) / norm ** 3
         dkappa = (dx * d3y - dy * d3x) / norm ** 4
-        k = self.slip_rad_per_mps2
+        k, a_max = self.slip_rad_per_mps2, self.grip_lateral_accel_mps2
         lat = v * v * kappa                        # lateral acceleration (m/s^2)
         dlat = 2.0 * v * a * kappa + v ** 3 * dkappa
-        beta = -np.arctan(k * lat)                 # velocity direction relative to the heading
-        omega = v * kappa + k * dlat / (1.0 + (k * lat) ** 2)
+        u = np.clip(lat / a_max, -0.95, 0.95)
+        alpha = k * a_max * np.arctanh(u)          # rear slip angle (tanh tyre law)
+        dalpha = k * dlat / (1.0 - u * u)
+        beta = -np.arctan(alpha)                   # velocity direction relative to the heading
+        omega = v * kappa + dalpha / (1.0 + alpha ** 2)
         cb, sb = np.cos(beta), np.sin(beta)
         return {
             "x": self.spline_x(s), "y": self.spline_y(s), "yaw": np.arctan2(dy, dx) - beta,
@@ -326,7 +333,7 @@ def make_trajectory(scenario: Scenario, settings: SimSettings) -> Trajectory:
     a_arr = np.gradient(v_arr, t_arr)
     a_arr = np.convolve(a_arr, np.ones(21) / 21, mode="same")
     return Trajectory(t_arr, s_arr, v_arr, a_arr, spline_x, spline_y, lap, start,
-                      settings.rear_slip_rad_per_mps2)
+                      settings.rear_slip_rad_per_mps2, settings.grip_lateral_accel_mps2)
 
 
 def simulate(scenario: Scenario, car: CarConfig, settings: SimSettings | None = None,
