@@ -2,10 +2,14 @@
 
 State (double precision), world frame::
 
-    x = [x_m, y_m, yaw_rad, vx_mps, vy_mps, l0_x_m, l0_y_m, l1_x_m, l1_y_m, ...]
+    x = [x_m, y_m, yaw_rad, vx_mps, vy_mps, (b_gz, b_ax, b_ay,) l0_x_m, l0_y_m, l1_x_m, ...]
 
 The pose is that of the vehicle origin (rear axle); ``vx``/``vy`` are WORLD-frame velocities
-(seed 000, eq. 5.3). Landmark ``i`` sits at state indices ``5 + 2 i`` and ``5 + 2 i + 1``.
+(seed 000, eq. 5.3). With ``SlamConfig.imu_bias_states`` (default) the gyro z and accelerometer
+x, y biases follow as states (random walks; the IMU input is measurement minus bias): the car
+may drive off without a standstill to calibrate them, and an uncorrected 0.002 rad/s gyro bias
+turns the map by 0.08 rad over a lap. ``V`` = 5 or 8 vehicle states; landmark ``i`` sits at state
+indices ``V + 2 i`` and ``V + 2 i + 1``.
 
 Models
 ------
@@ -43,9 +47,11 @@ Models
   definite) and the new landmark is deleted. A backward sweep over the landmarks, newest first,
   then merges every duplicate (close in Euclidean and Mahalanobis distance to a landmark that was
   never seen at the same time).
-- Wheel odometry: the rear axle's forward speed (mean of the rear wheels) and the non-holonomic
-  pseudo-measurement "no lateral velocity at the rear axle"; the yaw rate is an input (gyro), not
-  a state, so the steering angle is not needed. GPS: world-frame position with its covariance,
+- Wheel odometry: the rear axle's forward speed (mean of the rear wheels) and a lateral
+  pseudo-measurement: the rear axle slides outwards only by its tyres' slip angle in a corner
+  (:func:`mapper.fusion.rear_slip_velocity`; zero slip is the plain non-holonomic
+  constraint); the yaw rate is an input (gyro), not a state, so the steering angle is not
+  needed. GPS: world-frame position with its covariance,
   Mahalanobis-gated.
 """
 
