@@ -20,6 +20,7 @@ Subclasses implement ``_open()``, ``_close()`` and ``_read(timeout_s) -> list[ra
 from __future__ import annotations
 
 import abc
+import bisect
 import collections
 import itertools
 import logging
@@ -148,16 +149,14 @@ def _rate(times: collections.deque[float], now_s: float, window_s: float) -> flo
     if not times:
         return 0.0
     start = now_s - window_s
-    n = 0
-    first = None
-    for t in reversed(times):
-        if t <= start:
-            break
-        if t <= now_s:
-            n += 1
-            first = t
-    if n == 0 or first is None:
+    # Times arrive in order (to within a reading's jitter): bisect instead of a scan, since
+    # health() asks for every source's rate on every control tick.
+    lo = bisect.bisect_right(times, start)
+    hi = bisect.bisect_right(times, now_s, lo)
+    n = hi - lo
+    if n <= 0:
         return 0.0
+    first = times[lo]
     oldest = times[0]
     if oldest > start and len(times) < (times.maxlen or 0):
         # seen for less than a window: use the span of what we have
