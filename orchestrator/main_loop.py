@@ -177,6 +177,8 @@ class Main:
         if now_s + 1e-9 >= self._next_output_s:
             self._next_output_s = now_s + self._output_period_s
             self._emit(MAP_STATE, self.map_state, now_s)
+            if self.visualiser is not None:
+                self.visualiser.note_pose(self.map_state.pose.x_m, self.map_state.pose.y_m)
             if self.recorder is not None:
                 self.recorder.write(HEALTH, self.health, now_s)
         if self.visualiser is not None and now_s + 1e-9 >= self._next_frame_s:

@@ -142,6 +142,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if visualiser is not None:
         _movie(config, out_dir)
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
+    if visualiser is not None:
+        summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
     _plots(out_dir, runner, track)

@@ -62,6 +62,9 @@ class FrameData:
     target_speed_mps: float = math.nan
     truth_pose: tuple[float, float, float] | None = None
     stale_sources: tuple[str, ...] = ()
+    trace_xy_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    """Poses (K, 2) since the previous frame, for the driven trace (the frame's own pose is added
+    after them)."""
 
 
 def frame_from_messages(

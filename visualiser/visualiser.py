@@ -65,7 +65,8 @@ class FrameRenderer:
         return WorldToPixel.fit(w, h, np.concatenate(parts))
 
     def render(self, frame: FrameData, hud_extra: tuple[str, ...] = ()) -> Any:
-        """Draw ``frame`` (adding its pose to the driven trace); returns the Surface."""
+        """Draw ``frame`` (adding its poses to the driven trace); returns the Surface."""
+        self.trace.extend((float(x), float(y)) for x, y in frame.trace_xy_m)
         self.trace.append((frame.pose[0], frame.pose[1]))
         self._trace_array = np.asarray(self.trace)
         self._renderer.draw_frame(self.surface, frame, self.view_for(frame), self.track,
@@ -146,9 +147,15 @@ class Visualiser:
         )
         self._process.start()
         self._track_sent = False
+        self._trace: list[tuple[float, float]] = []
         self.submitted = 0
         self.dropped = 0
         self.config = config
+
+    def note_pose(self, x_m: float, y_m: float) -> None:
+        """Remember a pose for the driven trace between frames (cheap; call at ~10 Hz)."""
+        if len(self._trace) < 10000:
+            self._trace.append((x_m, y_m))
 
     def submit(
         self,
@@ -170,11 +177,14 @@ class Visualiser:
         if not self.config.visualiser.show_truth:
             truth = None
         frame = frame_from_messages(map_state, plan, command, truth, health)
+        if self._trace:
+            frame.trace_xy_m = np.asarray(self._trace)
         try:
             self._jobs.put_nowait(("frame", frame))
         except queue.Full:
             self.dropped += 1
             return False
+        self._trace = []
         self.submitted += 1
         return True
 
