@@ -79,7 +79,7 @@ def render_recording(path: Path, out_dir: Path, config: AppConfig, fps: float | 
         elif topic == TRUTH_TRACK and vis.show_truth:
             renderer.track = track_data(message)
         elif topic == MAP_STATE and isinstance(message, MapState):
-            if fps is not None and t_s < next_t:
+            if fps is not None and t_s < next_t - 1e-6:  # float steps of the 10 Hz states
                 continue
             next_t = t_s + (1.0 / fps if fps else 0.0)
             frame = frame_from_messages(message, plan, command,
