@@ -101,3 +101,19 @@ def test_cli_config_print(tmp_path: Path) -> None:
     )
     assert result.returncode == 0, result.stderr
     assert tomllib.loads(result.stdout)["car"]["wheelbase_m"] == 1.7
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["sim"], ["replay", "x.mcap"], ["render", "x.mcap", "--out", "o"], ["info", "x.mcap"],
+     ["drive"], ["record", "--out", "x.mcap"], ["emulate"], ["decode", "nmea", "x.log"]],
+)
+def test_every_subcommand_stops_on_a_bad_config(tmp_path: Path, command: list[str]) -> None:
+    path = write(tmp_path, "[car]\nwheelbase = 1.5\n")
+    result = subprocess.run(
+        [sys.executable, "main.py", *command, "--config", str(path)],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "car.wheelbase" in lines[0] and str(path) in lines[0], lines
