@@ -24,9 +24,12 @@ class RunLog:
     throttle: list[float] = field(default_factory=list)
     brake: list[float] = field(default_factory=list)
     steering_rad: list[float] = field(default_factory=list)
+    covariance: list[np.ndarray] = field(default_factory=list)
+    map_frozen: list[bool] = field(default_factory=list)
 
     def add(self, t_s: float, truth: GroundTruth | None, pose: PoseEstimate,
-            target_speed_mps: float, throttle: float, brake: float, steering_rad: float) -> None:
+            target_speed_mps: float, throttle: float, brake: float, steering_rad: float,
+            map_frozen: bool = False) -> None:
         self.t_s.append(t_s)
         if truth is not None:
             self.truth.append((truth.x_m, truth.y_m, truth.yaw_rad,
@@ -37,6 +40,8 @@ class RunLog:
         self.throttle.append(throttle)
         self.brake.append(brake)
         self.steering_rad.append(steering_rad)
+        self.covariance.append(pose.covariance)
+        self.map_frozen.append(map_frozen)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Every series as a numpy array; truth and estimate are (T, 4): x, y, yaw, speed."""
@@ -49,6 +54,8 @@ class RunLog:
             "throttle": np.asarray(self.throttle),
             "brake": np.asarray(self.brake),
             "steering_rad": np.asarray(self.steering_rad),
+            "covariance": np.asarray(self.covariance).reshape(-1, 3, 3),
+            "map_frozen": np.asarray(self.map_frozen, dtype=bool),
         }
 
     def save(self, path: Path) -> None:
@@ -70,3 +77,28 @@ class RunLog:
             "heading_rmse_rad": float(np.sqrt(np.mean(dyaw * dyaw))),
             "final_offset_m": float(np.hypot(*d[-1])),
         }
+
+    def nees(self) -> dict[str, float | int]:
+        """Pose NEES (x, y, yaw; 3 dof) per phase: the fraction of steps inside the two-sided
+        95 % chi-square band while mapping (before the map froze) and while localising on the
+        frozen map. A consistent filter has about 95 % of its steps inside."""
+        from mapper.evaluation import nees, nees_fraction_in_band
+
+        arrays = self.arrays()
+        truth, est, cov = arrays["truth"], arrays["estimate"], arrays["covariance"]
+        n = min(len(truth), len(est))
+        if n == 0:
+            return {}
+        err = np.column_stack([est[:n, 0] - truth[:n, 0], est[:n, 1] - truth[:n, 1],
+                               wrap_angles(est[:n, 2] - truth[:n, 2])])
+        cov = cov[:n] + np.eye(3) * 1e-12
+        values = nees(err, cov)
+        frozen = arrays["map_frozen"][:n]
+        # The first second is the filter's own start (pose exactly known): not a test of it.
+        settled = arrays["t_s"][:n] >= 1.0
+        out: dict[str, float | int] = {"dof": 3}
+        for name, sel in (("mapping", settled & ~frozen), ("localising", settled & frozen)):
+            if sel.any():
+                out[f"{name}_fraction_in_band"] = round(nees_fraction_in_band(values[sel], 3), 4)
+                out[f"{name}_mean"] = round(float(np.mean(values[sel])), 3)
+        return out

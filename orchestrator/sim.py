@@ -223,7 +223,7 @@ class _SimRunner:
             plan = main.plan
             target = plan.target_speed_mps if plan is not None else 0.0
             self.log.add(t_s, truth, ms.pose, target, command.throttle, command.brake,
-                         command.steering_rad)
+                         command.steering_rad, ms.map_frozen)
         self._track_estop(t_s, truth, speed)
 
     def _track_estop(self, t_s: float, truth: Any, speed: float) -> None:
@@ -312,6 +312,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "heading_rmse_rad": _round(errors["heading_rmse_rad"], 5),
         "final_offset_m": _round(errors["final_offset_m"], 4),
         "map": map_eval,
+        "nees": runner.log.nees(),
         "loop_closure": {
             "closed": bool(map_state is not None and map_state.loop_closed),
             "time_s": _round(runner.loop_closure_time_s),
