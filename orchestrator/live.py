@@ -1,15 +1,23 @@
-"""Main on the car: live sensors, three layers in their own threads, commands out on CAN.
+"""Main on the car: the reactive layer in this process, the heavy layers in another.
 
-- Reactive layer (this module's control loop, on the calling thread): every 1 / control_rate_hz
-  on the wall clock it reads the latest pose, plan, health and RES state, asks the Controller
-  for a command and sends it on CAN. It never waits for the other layers: they hand over their
-  latest result through a reference swap.
-- Executive layer (thread ``mapper``): takes the Sensor Manager's readings, records the raw units,
-  updates the Mapper, lets the planner record waypoints.
-- Deliberative layer (thread ``planner``): plans at plan_rate_hz from the latest map state.
+- Reactive layer (this module, the calling thread of the ``drive`` process): every
+  1 / control_rate_hz on the wall clock it takes the CAN frames (the RES among them: an
+  emergency stop reaches control directly), reads the latest pose, plan and health, asks the
+  Controller for a command and sends it on CAN. The only other thread of this process is the
+  CAN receiver, so nothing heavy shares its GIL; it never waits for the other layers: their
+  results arrive as messages it drains without blocking (:mod:`orchestrator.live_link`).
+- Executive layer (sensor receivers and parsing, the Mapper, recording, rendering) and
+  deliberative layer (the planner) run in a separate process, :mod:`orchestrator.live_worker`
+  (``multiprocessing``, spawn). This process forwards the CAN frames and its commands to it
+  each tick; it sends back each pose, each plan and the sensors' health.
+
+A source's health comes with the time it was measured; here its age is advanced to now, so a
+stalled or dead executive process makes its sources stale (the safety supervisor stops the car).
+An error in either process, or the executive process dying, ends the run with a safe stop.
 
 Ctrl-C and SIGTERM end the run cleanly: the car is commanded to stop (full brake frames), the
-threads are joined and the recording is closed.
+executive process is told to stop (it joins its threads and closes the recording and the
+visualiser) and joined, the CAN receiver is stopped.
 """
 
 from __future__ import annotations
@@ -17,11 +25,13 @@ from __future__ import annotations
 import json
 import logging
 import math
+import multiprocessing as mp
 import signal
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,21 +42,26 @@ from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
-    GpsFix,
-    MapState,
+    Health,
     Plan,
+    PoseEstimate,
     RemoteStop,
+    SourceHealth,
 )
 from controller.controller import Controller
-from mapper.mapper import Mapper
+from orchestrator.live_link import Link, link_pair
+from orchestrator.live_worker import control_config, worker_main
 from orchestrator.main_loop import StageTimes
-from orchestrator.outputs import HashSink
-from planner.path_planner import PathPlanner
-from recordings.recorder import Recorder
-from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
-from sensors.manager import SensorManager
+from sensors.manager import SOURCES, SensorManager
 
 log = logging.getLogger(__name__)
+
+WORKER_START_TIMEOUT_S = 60.0
+"""The executive process must be up (sensors started) within this long."""
+WORKER_STOP_TIMEOUT_S = 30.0
+"""At the end it must close its recording and send its statistics within this long."""
+HEALTH_RECORD_EVERY = 10
+"""Every this many control ticks the health the controller saw is recorded."""
 
 
 @dataclass
@@ -62,19 +77,36 @@ class DriveOptions:
     recording_name: str = "recording.mcap"
 
 
-@dataclass
-class _Shared:
-    """Latest results handed between the layers (each a single reference: swaps are atomic)."""
+def merge_health(now_s: float, own: Health, remote: Health | None,
+                 remote_sources: Sequence[str], timeouts_s: dict[str, float]) -> Health:
+    """One :class:`Health` at ``now_s`` from this process's sources (``own``: CAN and RES)
+    and the executive process's (``remote``, measured at ``remote.timestamp_s``).
 
-    map_state: MapState | None = None
-    plan: Plan | None = None
-    remote: RemoteStop | None = None
-    stop: threading.Event = field(default_factory=threading.Event)
-    errors: list[str] = field(default_factory=list)
+    The remote sources' ages are advanced to ``now_s`` and their staleness decided again with
+    ``timeouts_s[source]``; a remote source with no report yet is stale. Sources come in the
+    Sensor Manager's order (``res`` after ``can``).
+    """
+    by_source: dict[str, SourceHealth] = {s.source: s for s in own.sources}
+    reported = {s.source: s for s in remote.sources} if remote is not None else {}
+    lag_s = max(0.0, now_s - remote.timestamp_s) if remote is not None else math.inf
+    for source in remote_sources:
+        s = reported.get(source)
+        if s is None:
+            by_source[source] = SourceHealth(now_s, source, False, 0.0, math.inf, 0, True)
+            continue
+        age_s = s.age_s + lag_s
+        by_source[source] = SourceHealth(now_s, source, s.alive, s.rate_hz, age_s, s.errors,
+                                         age_s > timeouts_s[source], s.rejects)
+    order = [name for source in SOURCES for name in
+             ((source, "res") if source == "can" else (source,))]
+    ordered = [by_source.pop(name) for name in order if name in by_source]
+    ordered.extend(by_source.values())
+    return Health(now_s, tuple(ordered), own.state, own.stop_reason)
 
 
 class LiveMain:
-    """Main for the car: owns the managers, runs the layers in their own threads."""
+    """Main for the car: the control loop here, the executive and deliberative layers in a
+    process of their own (:mod:`orchestrator.live_worker`)."""
 
     def __init__(self, config: AppConfig, options: DriveOptions) -> None:
         self.config = config
@@ -82,187 +114,203 @@ class LiveMain:
         if options.laps is not None:
             config.controller.laps = options.laps
         self.clock = RealClock()
-        self.sensors = SensorManager(config, self.clock)
-        self.mapper = Mapper(config)
-        self.planner = PathPlanner(config)
+        self.sensors = SensorManager(control_config(config), self.clock)
         self.controller = Controller(config)
-        self.hasher = HashSink()
-        self.recorder: Recorder | None = None
         options.out_dir.mkdir(parents=True, exist_ok=True)
-        if options.record:
-            self.recorder = Recorder(options.out_dir / options.recording_name, config.recording)
-        self.visualiser: Any = None
-        if options.render:
-            from visualiser.visualiser import Visualiser
-
-            self.visualiser = Visualiser(config, options.out_dir / "frames")
-        self.shared = _Shared()
+        sc = config.sensors
+        self.remote_sources = tuple(s for s in SOURCES
+                                    if s != "can" and getattr(sc, s).enabled)
+        self.timeouts_s = {s: float(getattr(sc, s).timeout_s) for s in SOURCES}
         self.times = StageTimes()
         self.periods_s: list[float] = []
-        self.autonomous_started = False
-        self._lock = threading.Lock()
-        self._final_health: Any = None
+        self.errors: list[str] = []
+        self.pose: PoseEstimate | None = None
+        self.plan: Plan | None = None
+        self.remote: RemoteStop | None = None
+        self.loop_closed = False
+        self.landmarks = 0
+        self.worker_health: Health | None = None
+        self.worker_stats: dict[str, Any] = {}
+        self.worker_ready = False
+        self.stop = threading.Event()
+        self._link: Link | None = None
+        self._process: Any = None
+        self._final_health: Health | None = None
 
-    # ------------------------------------------------------------------ layers
-    def _executive(self) -> None:
-        shared = self.shared
-        next_output_s = 0.0
-        while not shared.stop.is_set():
-            try:
-                batch = self.sensors.take()
-                if not batch.raw and not batch.readings:
-                    time.sleep(0.002)
-                    continue
-                now_s = self.clock.now_s()
-                if self.recorder is not None:
-                    for raw in batch.raw:
-                        self.recorder.write_raw(raw)
-                for reading in batch.readings:
-                    if isinstance(reading, RemoteStop):
-                        shared.remote = reading
-                    elif isinstance(reading, GpsFix) and self.recorder is not None:
-                        self.recorder.write_gps_fix(reading)
-                if not self.options.control:
-                    continue
-                t0 = time.perf_counter()
-                map_state = self.mapper.update(batch.readings, now_s)
-                self.times.add("mapper", time.perf_counter() - t0)
-                shared.map_state = map_state
-                self.planner.observe(map_state)
-                if now_s >= next_output_s:
-                    next_output_s = now_s + 1.0 / self.config.run.output_record_rate_hz
-                    self._emit(MAP_STATE, map_state, now_s)
-            except Exception as exc:  # a crash here must stop the car, never go silent
-                log.exception("executive layer failed")
-                shared.errors.append(f"mapper: {exc!r}")
-                shared.stop.set()
+    # ------------------------------------------------------------------ the executive process
+    def _start_worker(self) -> None:
+        parent_sock, child_sock = link_pair()
+        ctx = mp.get_context("spawn")
+        self._process = ctx.Process(
+            target=worker_main, name="fsd-executive", daemon=True,
+            args=(self.config, self.options, self.clock, child_sock,
+                  logging.getLogger().getEffectiveLevel()),
+        )
+        self._process.start()
+        child_sock.close()
+        self._link = Link(parent_sock)
 
-    def _deliberative(self) -> None:
-        shared = self.shared
-        period_s = 1.0 / self.config.run.plan_rate_hz
-        next_s = self.clock.now_s()
-        while not shared.stop.is_set():
-            try:
-                next_s += period_s
-                self.clock.sleep_until(next_s)
-                map_state = shared.map_state
-                if map_state is None:
-                    continue
-                remote = shared.remote
-                go = remote is not None and remote.go
-                if not self.autonomous_started and (map_state.loop_closed or go):
-                    self.planner.start_autonomous(map_state)
-                    self.autonomous_started = True
-                if not self.autonomous_started:
-                    continue
-                now_s = self.clock.now_s()
-                t0 = time.perf_counter()
-                plan = self.planner.plan(map_state, now_s)
-                self.times.add("planner", time.perf_counter() - t0)
-                shared.plan = plan
-                self._emit(PLAN, plan, now_s)
-            except Exception as exc:
-                log.exception("deliberative layer failed")
-                shared.errors.append(f"planner: {exc!r}")
-                shared.stop.set()
+    def _on_message(self, message: tuple[Any, ...]) -> None:
+        kind = message[0]
+        if kind == "pose":
+            _, self.pose, self.loop_closed, self.landmarks = message
+        elif kind == "plan":
+            self.plan = message[1]
+        elif kind == "health":
+            self.worker_health = message[1]
+        elif kind == "ready":
+            self.worker_ready = True
+        elif kind == "error":
+            log.error("executive process: %s", message[1])
+            self.errors.append(message[1])
+        elif kind == "final":
+            self.worker_stats = message[1]
+        else:
+            log.warning("unknown message from the executive process: %r", kind)
 
-    def _emit(self, topic: str, message: Any, now_s: float) -> None:
-        with self._lock:
-            self.hasher.write(topic, message, now_s)
-            if self.recorder is not None:
-                self.recorder.write(topic, message, now_s)
+    def _drain(self) -> None:
+        """Take every message the executive process sent; note it if it is gone."""
+        assert self._link is not None
+        for message in self._link.poll():
+            self._on_message(message)
+        if self._link.closed and not self.worker_stats and not self.errors:
+            code = self._process.exitcode if self._process is not None else None
+            self.errors.append(f"executive process died (exit code {code})")
+            log.error("the executive process died (exit code %s)", code)
+
+    def _wait_ready(self) -> bool:
+        end = time.monotonic() + WORKER_START_TIMEOUT_S
+        while not self.stop.is_set() and not self.errors:
+            self._drain()
+            if self.worker_ready:
+                return True
+            if time.monotonic() > end:
+                self.errors.append(
+                    f"executive process not ready within {WORKER_START_TIMEOUT_S:.0f} s")
+                break
+            time.sleep(0.02)
+        return False
+
+    def _stop_worker(self) -> None:
+        link, process = self._link, self._process
+        if link is None or process is None:
+            return
+        link.send_nowait(("stop",))
+        end = time.monotonic() + WORKER_STOP_TIMEOUT_S
+        while not link.closed and not self.worker_stats and time.monotonic() < end:
+            link.flush()
+            for message in link.poll():
+                self._on_message(message)
+            time.sleep(0.01)
+        process.join(max(1.0, end - time.monotonic()))
+        if process.is_alive():
+            log.error("the executive process did not end: terminating it")
+            process.terminate()
+            process.join(2.0)
+        link.close()
 
     # ------------------------------------------------------------------ the reactive loop
     def run(self) -> dict[str, Any]:
         """Drive until finished, a stop, ``seconds`` or a signal; returns the summary."""
-        shared = self.shared
         previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
 
         def on_signal(signum: int, _frame: Any) -> None:
             log.warning("signal %d: stopping the car", signum)
-            shared.stop.set()
+            self.stop.set()
 
         for s in previous:
             signal.signal(s, on_signal)
         sys.setswitchinterval(0.0005)
         stop_reason = "signal"
-        self.sensors.start()
-        threads = [threading.Thread(target=self._executive, name="mapper", daemon=True)]
-        if self.options.control:
-            threads.append(threading.Thread(target=self._deliberative, name="planner",
-                                            daemon=True))
-        for thread in threads:
-            thread.start()
+        try:
+            self._start_worker()
+            if self._wait_ready():
+                self.sensors.start()
+                stop_reason = self._loop()
+            if self.errors:
+                stop_reason = "; ".join(self.errors)
+        finally:
+            self.stop.set()
+            # Health as the loop last saw it (rates measured once the receivers stop would
+            # count the time after the end as silence).
+            self._final_health = self._health(self.clock.now_s())
+            self._safe_stop()
+            self._stop_worker()
+            self.sensors.stop()
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+        return self._summary(stop_reason)
+
+    def _loop(self) -> str:
+        assert self._link is not None
+        link = self._link
         period_s = 1.0 / self.config.run.control_rate_hz
         start_s = self.clock.now_s()
         next_s = start_s
         last_tick_s = math.nan
         standstill_since: float | None = None
-        try:
-            while not shared.stop.is_set():
-                next_s += period_s
-                self.clock.sleep_until(next_s)
-                now_s = self.clock.now_s()
-                if math.isfinite(last_tick_s):
-                    self.periods_s.append(now_s - last_tick_s)
-                last_tick_s = now_s
-                if self.options.seconds is not None and now_s - start_s >= self.options.seconds:
-                    stop_reason = "time limit"
-                    break
-                if not self.options.control:
-                    continue
-                t0 = time.perf_counter()
-                command = self._command(now_s)
-                self.times.add("controller", time.perf_counter() - t0)
+        ticks = 0
+        while not self.stop.is_set():
+            next_s += period_s
+            self.clock.sleep_until(next_s)
+            now_s = self.clock.now_s()
+            if math.isfinite(last_tick_s):
+                self.periods_s.append(now_s - last_tick_s)
+            last_tick_s = now_s
+            if self.options.seconds is not None and now_s - start_s >= self.options.seconds:
+                return "time limit"
+            t0 = time.perf_counter()
+            self._drain()
+            if self.errors:
+                return "; ".join(self.errors)
+            batch = self.sensors.take()
+            for reading in batch.readings:
+                if isinstance(reading, RemoteStop):
+                    self.remote = reading
+            t1 = time.perf_counter()
+            command: ActuatorCommand | None = None
+            health: Health | None = None
+            if self.options.control:
+                health = self._health(now_s)
+                command = self._command(now_s, health)
                 self.sensors.send_command(command)
-                self._emit(COMMAND, command, now_s)
-                if self.visualiser is not None and shared.map_state is not None:
-                    self.visualiser.submit(shared.map_state, shared.plan, command)
-                state = self.controller.state
-                pose = shared.map_state.pose if shared.map_state is not None else None
-                speed = pose.speed_mps if pose is not None else 0.0
-                if state in (AsState.FINISHED, AsState.EMERGENCY) and speed < 0.1:
-                    standstill_since = standstill_since or now_s
-                    if now_s - standstill_since > 1.0:
-                        stop_reason = self.controller.stop_reason or state.name.lower()
-                        break
-                else:
-                    standstill_since = None
-            if shared.errors:
-                stop_reason = "; ".join(shared.errors)
-        finally:
-            shared.stop.set()
-            # Health as the loop last saw it (rates measured once the receivers stop would
-            # count the time after the end as silence).
-            self._final_health = self.sensors.health(self.clock.now_s())
-            self._safe_stop()
-            for thread in threads:
-                thread.join(1.0)
-            self.sensors.stop()
-            if self.recorder is not None:
-                self.recorder.close()
-            if self.visualiser is not None:
-                self.visualiser.close()
-            for s, handler in previous.items():
-                signal.signal(s, handler)
-        return self._summary(stop_reason)
+                self.times.add("controller", time.perf_counter() - t1)
+            t2 = time.perf_counter()
+            record_health = health if ticks % HEALTH_RECORD_EVERY == 0 else None
+            ticks += 1
+            if batch.raw or batch.readings or command is not None:
+                link.send_nowait(("tick", now_s, batch.raw, batch.readings, command,
+                                  record_health))
+            else:
+                link.flush()
+            self.times.add("link", (t1 - t0) + (time.perf_counter() - t2))
+            if not self.options.control:
+                continue
+            state = self.controller.state
+            speed = self.pose.speed_mps if self.pose is not None else 0.0
+            if state in (AsState.FINISHED, AsState.EMERGENCY) and speed < 0.1:
+                standstill_since = standstill_since or now_s
+                if now_s - standstill_since > 1.0:
+                    return self.controller.stop_reason or state.name.lower()
+            else:
+                standstill_since = None
+        return "signal"
 
-    def _command(self, now_s: float) -> ActuatorCommand:
-        shared = self.shared
-        health = self.sensors.health(now_s)
-        map_state = shared.map_state
-        if map_state is None:
+    def _health(self, now_s: float) -> Health:
+        return merge_health(now_s, self.sensors.health(now_s), self.worker_health,
+                            self.remote_sources, self.timeouts_s)
+
+    def _command(self, now_s: float, health: Health) -> ActuatorCommand:
+        if self.pose is None:
             return ActuatorCommand(now_s, 0.0, 1.0, 0.0, AsState.READY)
         command: ActuatorCommand = self.controller.command(
-            now_s, map_state.pose, shared.plan, health, shared.remote
+            now_s, self.pose, self.plan, health, self.remote
         )
-        if self.recorder is not None and len(self.periods_s) % 10 == 0:
-            self.recorder.write(HEALTH, health, now_s)
         return command
 
     def _safe_stop(self) -> None:
         """Full brake frames for a moment, so the car stops even if nothing else is sent."""
-        if not self.options.control:
+        if not self.options.control or not self.sensors.receivers:
             return
         for _ in range(5):
             try:
@@ -283,21 +331,29 @@ class LiveMain:
                 "control_period_max_ms": round(float(periods_ms.max()), 3),
                 "control_ticks": int(periods_ms.size + 1),
             })
-        timing["stages_ms"] = self.times.summary_ms()
-        map_state = self.shared.map_state
+        stages = self.times.summary_ms()
+        stages.update(self.worker_stats.get("stages_ms", {}))
+        timing["stages_ms"] = stages
+        link = self._link
+        if link is not None:
+            timing["link_messages"] = {"sent": link.sent, "received": link.received,
+                                       "dropped": link.dropped}
+        health = self._final_health
         summary: dict[str, Any] = {
             "stop_reason": stop_reason,
             "finished": self.controller.state == AsState.FINISHED,
-            "laps_completed": self.shared.plan.lap if self.shared.plan is not None else 0,
-            "loop_closure": {"closed": bool(map_state is not None and map_state.loop_closed)},
-            "landmarks": len(map_state.cones) if map_state is not None else 0,
+            "laps_completed": self.plan.lap if self.plan is not None else 0,
+            "loop_closure": {"closed": bool(self.loop_closed)},
+            "landmarks": int(self.landmarks),
             "timing": timing,
             "health": [
                 {"source": s.source, "rate_hz": round(s.rate_hz, 2), "errors": s.errors,
                  "rejects": dict(s.rejects)}
-                for s in self._final_health.sources
+                for s in (health.sources if health is not None else ())
             ],
-            "outputs_sha256": self.hasher.hexdigest(),
+            "outputs_sha256": self.worker_stats.get("outputs_sha256"),
         }
+        if "frames" in self.worker_stats:
+            summary["frames"] = self.worker_stats["frames"]
         (self.options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         return summary

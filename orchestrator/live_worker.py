@@ -1,0 +1,323 @@
+"""The executive and deliberative layers of ``drive``, in a process of their own.
+
+:class:`orchestrator.live.LiveMain` (the reactive layer: control and safety, the CAN bus) starts
+this process with ``multiprocessing`` (spawn) so that the heavy layers never share a GIL with
+the control loop. Here:
+
+- the Sensor Manager runs the receivers of every enabled source but CAN (GPS, IMU, LiDAR,
+  camera); the CAN frames (and their decoded readings) come from the control process with
+  every control tick;
+- the executive layer (thread ``mapper``) records the raw units, updates the Mapper, lets the
+  planner record waypoints and sends each new pose to the control process;
+- the deliberative layer (thread ``planner``) plans at ``run.plan_rate_hz`` and sends each plan;
+- thread ``health`` sends the sensors' health at :data:`HEALTH_RATE_HZ`;
+- the main thread takes the control process's messages: CAN frames for the mapper, commands and
+  health for the recording, ``stop``.
+
+Messages to the control process (tuples): ``("ready",)``, ``("pose", pose, loop_closed,
+landmarks)``, ``("plan", plan)``, ``("health", health)``, ``("error", text)``,
+``("final", stats)``. From it: ``("tick", now_s, can_raw, can_readings, command, health)``
+(``command`` / ``health`` may be None) and ``("stop",)``.
+
+The process ignores SIGINT and SIGTERM (Ctrl-C reaches the whole process group): the control
+process decides when the run ends. It ends on ``stop``, on an error in one of its layers, or when
+the link closes (the control process died); it then joins its threads, stops the receivers,
+closes the recording and the visualiser, and sends its final statistics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import signal
+import socket
+import threading
+import time
+import traceback
+from collections import deque
+from typing import TYPE_CHECKING, Any
+
+from common.clock import RealClock
+from common.config import AppConfig
+from common.messages import (
+    ActuatorCommand,
+    CanFrame,
+    GpsFix,
+    MapState,
+    Plan,
+    Reading,
+    RemoteStop,
+)
+from orchestrator.live_link import Link
+from orchestrator.main_loop import StageTimes
+from orchestrator.outputs import HashSink
+from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
+
+if TYPE_CHECKING:
+    from orchestrator.live import DriveOptions
+
+log = logging.getLogger(__name__)
+
+HEALTH_RATE_HZ = 50.0
+"""How often the sensors' health goes to the control process (its staleness check ages it)."""
+IDLE_SLEEP_S = 0.002
+"""The executive layer's wait when no sensor data came."""
+
+
+def worker_config(config: AppConfig) -> AppConfig:
+    """The configuration of the worker's Sensor Manager: every source but CAN."""
+    sensors = dataclasses.replace(config.sensors,
+                                  can=dataclasses.replace(config.sensors.can, enabled=False))
+    return dataclasses.replace(config, sensors=sensors)
+
+
+def control_config(config: AppConfig) -> AppConfig:
+    """The configuration of the control process's Sensor Manager: CAN alone."""
+    sc = config.sensors
+    off = {name: dataclasses.replace(getattr(sc, name), enabled=False)
+           for name in ("gps", "imu", "lidar", "camera")}
+    return dataclasses.replace(config, sensors=dataclasses.replace(sc, **off))
+
+
+def _merge_by_time(a: list[Any], b: list[Any]) -> list[Any]:
+    """Two time-ordered lists merged in time order (ties: ``a`` first)."""
+    if not b:
+        return a
+    if not a:
+        return b
+    merged = a + b
+    merged.sort(key=lambda r: float(r.timestamp_s))  # stable: a's ties stay first
+    return merged
+
+
+class Worker:
+    """The executive and deliberative layers, their sensors, the recording and the visualiser."""
+
+    def __init__(self, config: AppConfig, options: DriveOptions, clock: RealClock,
+                 link: Link) -> None:
+        from mapper.mapper import Mapper
+        from planner.path_planner import PathPlanner
+        from recordings.recorder import Recorder
+        from sensors.manager import SensorManager
+
+        self.config = config
+        self.options = options
+        self.clock = clock
+        self.link = link
+        self.sensors = SensorManager(worker_config(config), clock)
+        self.mapper = Mapper(config) if options.control else None
+        self.planner = PathPlanner(config) if options.control else None
+        self.hasher = HashSink()
+        self.recorder: Any = None
+        if options.record:
+            self.recorder = Recorder(options.out_dir / options.recording_name, config.recording)
+        self.visualiser: Any = None
+        if options.render and options.control:
+            from visualiser.visualiser import Visualiser
+
+            self.visualiser = Visualiser(config, options.out_dir / "frames")
+        self.times = StageTimes()
+        self.stop = threading.Event()
+        self.errors: list[str] = []
+        self._lock = threading.Lock()
+        self._can: deque[tuple[list[CanFrame], list[Reading]]] = deque()
+        self._can_lock = threading.Lock()
+        self.map_state: MapState | None = None
+        self.plan: Plan | None = None
+        self.command: ActuatorCommand | None = None
+        self.remote: RemoteStop | None = None
+        self.autonomous_started = False
+
+    # ------------------------------------------------------------------ outputs
+    def _emit(self, topic: str, message: Any, now_s: float) -> None:
+        with self._lock:
+            self.hasher.write(topic, message, now_s)
+            if self.recorder is not None:
+                self.recorder.write(topic, message, now_s)
+
+    def _fail(self, layer: str, exc: BaseException) -> None:
+        log.exception("%s layer failed", layer)
+        text = f"{layer}: {exc!r}"
+        self.errors.append(text)
+        self.link.send(("error", text))
+        self.stop.set()
+
+    # ------------------------------------------------------------------ layers
+    def _take_can(self) -> tuple[list[CanFrame], list[Reading]]:
+        with self._can_lock:
+            items = list(self._can)
+            self._can.clear()
+        raw: list[CanFrame] = []
+        readings: list[Reading] = []
+        for r, p in items:
+            raw.extend(r)
+            readings.extend(p)
+        return raw, readings
+
+    def _executive(self) -> None:
+        output_period_s = 1.0 / self.config.run.output_record_rate_hz
+        frame_period_s = 1.0 / max(self.config.visualiser.fps, 1e-6)
+        next_output_s = 0.0
+        next_frame_s = 0.0
+        while not self.stop.is_set():
+            try:
+                batch = self.sensors.take()
+                can_raw, can_readings = self._take_can()
+                if not batch.raw and not can_raw:
+                    time.sleep(IDLE_SLEEP_S)
+                    continue
+                now_s = self.clock.now_s()
+                raw = _merge_by_time(list(batch.raw), list(can_raw))
+                readings = _merge_by_time(list(batch.readings), can_readings)
+                if self.recorder is not None:
+                    for unit in raw:
+                        self.recorder.write_raw(unit)
+                    for reading in readings:
+                        if isinstance(reading, GpsFix):
+                            self.recorder.write_gps_fix(reading)
+                if self.mapper is None or self.planner is None:
+                    continue
+                t0 = time.perf_counter()
+                map_state = self.mapper.update(readings, now_s)
+                self.times.add("mapper", time.perf_counter() - t0)
+                self.map_state = map_state
+                self.link.send(("pose", map_state.pose, map_state.loop_closed,
+                                len(map_state.cones)))
+                self.planner.observe(map_state)
+                if now_s >= next_output_s:
+                    next_output_s = now_s + output_period_s
+                    self._emit(MAP_STATE, map_state, now_s)
+                    if self.visualiser is not None:
+                        self.visualiser.note_pose(map_state.pose.x_m, map_state.pose.y_m)
+                if self.visualiser is not None and now_s >= next_frame_s:
+                    next_frame_s = now_s + frame_period_s
+                    self.visualiser.submit(map_state, self.plan, self.command)
+            except Exception as exc:  # a crash here must stop the car, never go silent
+                self._fail("mapper", exc)
+
+    def _deliberative(self) -> None:
+        assert self.planner is not None
+        period_s = 1.0 / self.config.run.plan_rate_hz
+        next_s = self.clock.now_s()
+        while not self.stop.is_set():
+            try:
+                next_s += period_s
+                self.clock.sleep_until(next_s)
+                map_state = self.map_state
+                if map_state is None:
+                    continue
+                remote = self.remote
+                go = remote is not None and remote.go
+                if not self.autonomous_started and (map_state.loop_closed or go):
+                    self.planner.start_autonomous(map_state)
+                    self.autonomous_started = True
+                if not self.autonomous_started:
+                    continue
+                now_s = self.clock.now_s()
+                t0 = time.perf_counter()
+                plan = self.planner.plan(map_state, now_s)
+                self.times.add("planner", time.perf_counter() - t0)
+                self.plan = plan
+                self.link.send(("plan", plan))
+                self._emit(PLAN, plan, now_s)
+            except Exception as exc:
+                self._fail("planner", exc)
+
+    def _health(self) -> None:
+        period_s = 1.0 / HEALTH_RATE_HZ
+        next_s = self.clock.now_s()
+        while not self.stop.is_set():
+            try:
+                next_s += period_s
+                self.clock.sleep_until(next_s)
+                health = self.sensors.health(self.clock.now_s())
+                if not self.link.send(("health", health)):
+                    break
+            except Exception as exc:
+                self._fail("health", exc)
+
+    # ------------------------------------------------------------------ control messages
+    def _on_message(self, message: tuple[Any, ...]) -> None:
+        kind = message[0]
+        if kind == "tick":
+            _, now_s, can_raw, can_readings, command, health = message
+            if can_raw or can_readings:
+                for reading in can_readings:
+                    if isinstance(reading, RemoteStop):
+                        self.remote = reading
+                with self._can_lock:
+                    self._can.append((can_raw, can_readings))
+            if command is not None:
+                self.command = command
+                self._emit(COMMAND, command, now_s)
+            if health is not None and self.recorder is not None:
+                self.recorder.write(HEALTH, health, now_s)
+        elif kind == "stop":
+            self.stop.set()
+        else:
+            log.warning("unknown message from the control process: %r", kind)
+
+    def run(self) -> None:
+        """Start the layers, serve the control process until the end, then shut down."""
+        threads = [threading.Thread(target=self._executive, name="mapper", daemon=True),
+                   threading.Thread(target=self._health, name="health", daemon=True)]
+        if self.planner is not None:
+            threads.append(threading.Thread(target=self._deliberative, name="planner",
+                                            daemon=True))
+        self.sensors.start()
+        for thread in threads:
+            thread.start()
+        self.link.send(("ready",))
+        try:
+            while not self.stop.is_set():
+                for message in self.link.recv(0.05):
+                    self._on_message(message)
+                if self.link.closed:
+                    log.error("the control process is gone: stopping")
+                    self.stop.set()
+            # what the control process sent before it asked to stop (last commands, health)
+            for message in self.link.poll():
+                if message[0] == "tick":
+                    self._on_message(message)
+        finally:
+            self.stop.set()
+            for thread in threads:
+                thread.join(2.0)
+            self.sensors.stop()
+            if self.recorder is not None:
+                self.recorder.close()
+            if self.visualiser is not None:
+                self.visualiser.close()
+        stats: dict[str, Any] = {
+            "stages_ms": self.times.summary_ms(),
+            "outputs_sha256": self.hasher.hexdigest(),
+            "errors": self.errors,
+        }
+        if self.recorder is not None:
+            stats["recording_dropped"] = int(getattr(self.recorder, "dropped", 0))
+        if self.visualiser is not None:
+            stats["frames"] = {"submitted": self.visualiser.submitted,
+                               "dropped": self.visualiser.dropped}
+        self.link.send(("final", stats))
+
+
+def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
+                sock: socket.socket, log_level: int) -> None:
+    """Entry point of the worker process (``multiprocessing`` spawn target)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    logging.basicConfig(level=log_level,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    link = Link(sock)
+    try:
+        worker = Worker(config, options, clock, link)
+    except Exception as exc:
+        log.exception("the executive process could not start")
+        link.send(("error", f"executive start: {exc!r}"))
+        link.send(("final", {"errors": [traceback.format_exc(limit=3)]}))
+        link.close()
+        return
+    try:
+        worker.run()
+    finally:
+        link.close()
