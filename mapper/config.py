@@ -28,6 +28,11 @@ class SmootherConfig:
     """Objects matched fewer times are kept internally but not published in the map."""
     position_weight_new: float = 0.0
     """Weight of a new detection in the weighted average; 0 = 1 / (match_count + 2)."""
+    position_max_matches: int = 5
+    """Matches averaged into an object's position; later ones leave it (0: no limit, the
+    seed). With the smoother backend the car localises on the objects while it maps them
+    (``FusionConfig.smoother_localise``): an object that keeps following the pose's slow drift
+    (a gyro bias still being learnt) hides that drift from the localisation."""
 
 
 @dataclass(slots=True)
@@ -87,6 +92,22 @@ class UkfConfig:
     """The lateral constraint's sigma grows by this fraction of the modelled slip speed (the
     autonomous laps corner and brake near the grip limit, where the steady-state tyre model is
     rough: at 0.1 a 20 m/s braking corner pulled the pose 0.55 m off, its cones all gated out)."""
+    imu_bias_states: bool = True
+    """Estimate the gyro z and accelerometer x, y biases as states (random walks; each sigma
+    point subtracts its own): the car may drive off without a standstill to calibrate them. With
+    them the bias terms above (``gyro_bias_sigma_radps``, ``accel_bias_sigma_mps2``) are not
+    spread into the process noise."""
+    initial_gyro_bias_sigma_radps: float = 0.005
+    initial_accel_bias_sigma_mps2: float = 0.2
+    gyro_bias_walk_radps_rths: float = 2.0e-5
+    """Gyro bias random walk (rad/s per sqrt(s))."""
+    accel_bias_walk_mps2_rths: float = 1.0e-3
+    """Accelerometer bias random walk (m/s^2 per sqrt(s)), with slow pitch/roll leakage."""
+    accel_model_sigma_mps2: float = 0.05
+    """With bias states: unmodelled longitudinal acceleration (m/s^2 per sqrt(Hz)), vx and vy
+    process noise (pitch/roll leakage, vibration)."""
+    yaw_model_sigma_rad_rts: float = 1.0e-4
+    """With bias states: yaw process noise (rad per sqrt(s)) beyond the gyro's."""
     max_predict_dt_s: float = 0.05
     initial_position_sigma_m: float = 0.01
     initial_yaw_sigma_rad: float = 0.001
@@ -140,6 +161,19 @@ class FusionConfig:
     loop_min_distance_m: float = 60.0
     """Smoother backend: the loop closes back at the big orange cones after this travel."""
     loop_close_radius_m: float = 4.0
+    smoother_localise: bool = True
+    """Smoother backend: during the exploration the UKF also localises on the objects the time
+    smoother has confirmed (matched ``smoother_localise_min_matches`` times), before their
+    sweep is merged into them: a SLAM without cross-covariances. Without it the map is drawn
+    with the dead-reckoned pose (GNSS is metres off)."""
+    smoother_localise_min_matches: int = 5
+    smoother_localise_sigma_m: float = 0.02
+    """Detection noise of that update (m): the LiDAR's (its range noise is 2 cm)."""
+    smoother_localise_map_sigma_floor_m: float = 0.01
+    """Floor of a confirmed object's position sigma (m) in that update."""
+    smoother_localise_full_update: bool = True
+    """The exploration's cone update also corrects the yaw and the IMU biases (seed 001's
+    position-only mask is meant for a surveyed map)."""
 
 
 @dataclass(slots=True)

@@ -10,7 +10,10 @@ Either way, once the loop is closed (SLAM's controlled loop closure, or for the 
 within ``fusion.loop_close_radius_m`` of the start after ``fusion.loop_min_distance_m`` of
 travel) the map is frozen (``MapState.map_frozen``) and the car localises on it with the UKF and
 its cone update. Camera cones bring colour (a vote per associated detection); LiDAR brings
-position. The UKF runs in both backends (so it is calibrated and warm at closure; it is cheap).
+position. With the ``slam`` backend the UKF does not run before the freeze: it is seeded then
+from the SLAM's pose, velocities and IMU bias estimates (:meth:`Mapper._hand_over_to_ukf`).
+With the ``smoother`` backend the UKF (with IMU bias states) also localises on the objects the
+smoother has confirmed (``fusion.smoother_localise``) during the exploration.
 
 Timing (seed 000, 6.2.1): readings are applied in the order they were made through a
 :class:`mapper.fusion.DelayBuffer`; the output pose is the lagged estimate predicted forward to
@@ -127,16 +130,8 @@ class Mapper:
         """Freeze the map: the current one, or ``known_map`` (a surveyed map); from now on the
         UKF localises against it."""
         cone_map = known_map if known_map is not None else self._live_map()
-        if self.slam is not None and not self.map_frozen and known_map is None:
-            self.ukf.reset(self.slam.pose())
-            self.ukf.x[3:] = self._slam_velocity()
-            # The SLAM estimated the IMU biases on the way (the car may never have stood
-            # still for the UKF's static calibration): the UKF goes on with them.
-            bg, bax, bay = self.slam.imu_bias
-            if self.slam.vehicle_dim > 5:
-                self.ukf.calibrating = False
-                self.ukf.gyro_bias_radps = bg
-                self.ukf.accel_bias_mps2 = np.array([bax, bay])
+        if self.slam is not None and not self.map_frozen:
+            self._hand_over_to_ukf()
         self._frozen_map = cone_map
         votes = np.zeros((len(cone_map), N_COLOURS))
         known = cone_map.colour > int(ConeColour.UNKNOWN)
@@ -152,7 +147,9 @@ class Mapper:
         out: dict[str, dict[str, int]] = {}
         for source in (self.ukf.stats, self._counts):
             for sensor, counter in source.items():
-                out.setdefault(sensor, {}).update(counter)
+                row = out.setdefault(sensor, {})
+                for outcome, n in counter.items():
+                    row[outcome] = row.get(outcome, 0) + n
         for stream, n in self.buffer.late.items():
             out.setdefault(stream, {})["late"] = n
         if self.object_filter.rejects:
@@ -160,6 +157,21 @@ class Mapper:
         if self.slam is not None:
             out["slam"] = dict(self.slam.stats)
         return out
+
+    def _hand_over_to_ukf(self) -> None:
+        """Seed the UKF from the SLAM (pose, velocities, IMU biases, their covariances): with
+        the ``slam`` backend the UKF does not run before the map freezes."""
+        slam = self.slam
+        self.ukf.reset(slam.pose())
+        self.ukf.x[3:6] = self._slam_velocity()
+        self.ukf.t_s = slam.t_s
+        if slam.vehicle_dim > 5:
+            # The SLAM estimated the IMU biases on the way (the car may never have stood
+            # still for the UKF's static calibration): the UKF goes on with them.
+            v = slam.vehicle_dim
+            self.ukf.set_imu_bias(slam.imu_bias, np.array(slam.P[5:v, 5:v]))
+        else:
+            self.ukf.calibrating = False
 
     # -- per reading --------------------------------------------------------------------------
 
@@ -170,19 +182,24 @@ class Mapper:
         return self.slam is not None and not self.map_frozen
 
     def _apply(self, stream: str, r: Reading) -> None:
+        slam_active = self.slam is not None and not self.map_frozen
         if isinstance(r, ImuSample):
-            self.ukf.predict(r)
-            if self._slam_active():
+            if slam_active:
                 self.slam.predict(r)
+            else:
+                self.ukf.predict(r)
         elif isinstance(r, WheelSpeeds):
             if self._last_wheels_s is not None:
                 dt = r.timestamp_s - self._last_wheels_s
                 if 0.0 < dt < 1.0:
                     self.odometer_m += abs(r.mean_rear_mps) * dt
             self._last_wheels_s = r.timestamp_s
-            self.ukf.update_odometry(r, self._steer)
-            if self._slam_active():
+            if slam_active:
                 self.slam.update_odometry(r, self._steer)
+                if self.config.mapper.slam.use_odometry:
+                    self._count("odometry", "applied")
+            else:
+                self.ukf.update_odometry(r, self._steer)
         elif isinstance(r, SteeringAngle):
             self._steer = r
         elif isinstance(r, GpsFix):
@@ -209,18 +226,24 @@ class Mapper:
         east, north = float(e), float(n)
         if self.world_frame is None:
             assert self._frame_estimator is not None
+            if self._slam_active():
+                p = self.slam.pose()
+                state = np.array([p.x_m, p.y_m, p.yaw_rad, p.vx_mps, p.vy_mps])
+            else:
+                state = self.ukf.x
             self.world_frame = self._frame_estimator.add(east, north, fix.speed_mps,
-                                                         fix.course_rad, self.ukf.x)
+                                                         fix.course_rad, state)
             self._count("gnss", "frame_pending" if self.world_frame is None else "frame_found")
             return
         xy = self.world_frame.enu_to_world(east, north).reshape(2)
+        if self._slam_active():
+            self.slam.update_gps_xy(xy, np.eye(2) * self.config.mapper.slam.gps_sigma_m**2,
+                                    fix.timestamp_s)
+            return
         self.ukf.update_gnss_position(xy)
         course = (self.world_frame.enu_yaw_to_world_yaw(fix.course_rad)
                   if math.isfinite(fix.course_rad) else math.nan)
         self.ukf.update_gnss_velocity(fix.speed_mps, course)
-        if self._slam_active():
-            self.slam.update_gps_xy(xy, np.eye(2) * self.config.mapper.slam.gps_sigma_m**2,
-                                    fix.timestamp_s)
 
     def _on_lidar(self, sweep: LidarCones) -> None:
         cones = self.object_filter.filter(sweep.cones)
@@ -242,6 +265,17 @@ class Mapper:
             assert self._frozen_map is not None
             self.ukf.update_cones_on_map(cones, self._frozen_map, xy_vehicle)
             return
+        fc = self.config.mapper.fusion
+        if fc.smoother_localise:
+            # SLAM without cross-covariances: localise on the objects the smoother has
+            # confirmed, then add this sweep to them.
+            confirmed = self.smoother.confirmed_map(fc.smoother_localise_min_matches,
+                                                    fc.smoother_localise_map_sigma_floor_m)
+            if len(confirmed):
+                self.ukf.update_cones_on_map(cones, confirmed, xy_vehicle,
+                                             full_update=fc.smoother_localise_full_update,
+                                             cone_sigma_m=fc.smoother_localise_sigma_m)
+                x = self.ukf.x
         pose = (float(x[0]), float(x[1]), float(x[2]))
         xy_world = vehicle_to_world(xy_vehicle, *pose).reshape(-1, 2)
         lidar = vehicle_to_world([self.config.car.lidar_x_m, 0.0], *pose).reshape(2)
@@ -249,7 +283,6 @@ class Mapper:
         self.smoother.update(xy_world, detection_sizes(cones),
                              (float(lidar[0]), float(lidar[1]), pose[2]), colours)
         self._cones_dirty = True
-        fc = self.config.mapper.fusion
         if (self.odometer_m >= fc.loop_min_distance_m
                 and math.hypot(pose[0], pose[1]) <= fc.loop_close_radius_m):
             self.loop_closed = True
@@ -326,13 +359,13 @@ class Mapper:
         recent = self._recent_imu
         while recent and recent[0].timestamp_s <= t_lag:
             recent.popleft()
-        if self._slam_active() and self.slam.vehicle_dim > 5:
+        if self._slam_active():
             bg, bax, bay = self.slam.imu_bias
-            gyro_bias, accel_bias = bg, np.array([bax, bay])
             calibrating = False
         else:
-            gyro_bias, accel_bias = self.ukf.gyro_bias_radps, self.ukf.accel_bias_mps2
+            bg, bax, bay = self.ukf.imu_bias
             calibrating = self.ukf.calibrating
+        gyro_bias, accel_bias = bg, np.array([bax, bay])
         if recent and not calibrating:
             pred, t = predict_forward(state, t_lag, recent, gyro_bias, accel_bias,
                                       self.config.car.imu_x_m)

@@ -135,6 +135,8 @@ class TimeSmoother:
             w = 1.0 / (n_obs + 1.0)
             if cfg.position_weight_new > 0.0:
                 w = np.maximum(w, cfg.position_weight_new)
+            if cfg.position_max_matches > 0:
+                w = np.where(n_obs > cfg.position_max_matches, 0.0, w)
             old_xy = self.xy_m[o]
             delta = xy_m[hit] - old_xy
             self.xy_m[o] = old_xy + w[:, None] * delta
@@ -231,9 +233,15 @@ class TimeSmoother:
         best = np.argmax(self.colour_votes, axis=1)
         return np.where(self.colour_votes.max(axis=1) > 0.0, best, int(ConeColour.UNKNOWN))
 
-    def cone_map(self, sigma_floor_m: float = 0.05) -> ConeMap:
-        """The published objects as a :class:`ConeMap` (covariance from the matches' spread)."""
-        sel = self.published()
+    def confirmed_map(self, min_matches: int, sigma_floor_m: float = 0.05) -> ConeMap:
+        """The objects matched at least ``min_matches`` times as a :class:`ConeMap`."""
+        return self.cone_map(sigma_floor_m, self.match_count >= min_matches)
+
+    def cone_map(self, sigma_floor_m: float = 0.05,
+                 select: NDArray[np.bool_] | None = None) -> ConeMap:
+        """The published objects (or those ``select`` (n,) picks) as a :class:`ConeMap`
+        (covariance from the matches' spread)."""
+        sel = self.published() if select is None else select
         n = int(np.count_nonzero(sel))
         count = self.match_count[sel] + 1.0
         var = self.sum_sq_m2[sel] / (np.maximum(count - 1.0, 1.0) * count)[:, None]

@@ -60,7 +60,10 @@ log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 N_STATE = 6
+"""The pose and velocity states; with ``UkfConfig.imu_bias_states`` three IMU bias states follow."""
+N_BIAS = 3
 IX, IY, IYAW, IVX, IVY, IW = range(N_STATE)
+IBG, IBAX, IBAY = range(N_STATE, N_STATE + N_BIAS)
 
 
 class UkfLocaliser:
@@ -70,7 +73,8 @@ class UkfLocaliser:
                  initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.config = config
         self.car = car
-        n = N_STATE
+        self.n = n = N_STATE + (N_BIAS if config.imu_bias_states else 0)
+        """State size: 6, or 9 with the IMU bias states."""
         lam = config.alpha**2 * (n + config.kappa) - n
         self._scale = math.sqrt(n + lam)
         self.wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
@@ -88,7 +92,6 @@ class UkfLocaliser:
         self._calib_n = 0
         self.calibrating = config.static_calibration
         self._calib_ref: FloatArray | None = None
-        self._last_lateral_s = -math.inf
         self._tree: cKDTree | None = None
         self._tree_map: ConeMap | None = None
         self.reset(initial_pose)
@@ -99,10 +102,24 @@ class UkfLocaliser:
               covariance: FloatArray | None = None) -> None:
         """Start again at ``pose`` (x_m, y_m, yaw_rad) or a :class:`PoseEstimate`."""
         cfg = self.config
-        self.x = np.zeros(N_STATE)
-        p = np.diag([cfg.initial_position_sigma_m**2, cfg.initial_position_sigma_m**2,
-                     cfg.initial_yaw_sigma_rad**2, cfg.initial_velocity_sigma_mps**2,
-                     cfg.initial_velocity_sigma_mps**2, cfg.gyro_sigma_radps**2])
+        n = self.n
+        self._last_lateral_s = -math.inf
+        old_bias = self.x[N_STATE:].copy() if self.x.size == n else np.zeros(n - N_STATE)
+        old_bias_p = (self.P[N_STATE:, N_STATE:].copy() if self.P.shape == (n, n)
+                      and np.any(self.P[N_STATE:, N_STATE:]) else None)
+        self.x = np.zeros(n)
+        sig = [cfg.initial_position_sigma_m, cfg.initial_position_sigma_m,
+               cfg.initial_yaw_sigma_rad, cfg.initial_velocity_sigma_mps,
+               cfg.initial_velocity_sigma_mps, cfg.gyro_sigma_radps]
+        if n > N_STATE:
+            sig += [cfg.initial_gyro_bias_sigma_radps, cfg.initial_accel_bias_sigma_mps2,
+                    cfg.initial_accel_bias_sigma_mps2]
+        p = np.diag(np.asarray(sig) ** 2)
+        if n > N_STATE:
+            # A reset moves the pose; what was learnt about the IMU's biases is kept.
+            self.x[N_STATE:] = old_bias
+            if old_bias_p is not None:
+                p[N_STATE:, N_STATE:] = old_bias_p
         if isinstance(pose, PoseEstimate):
             self.x[:] = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps,
                          pose.yaw_rate_radps)
@@ -112,8 +129,45 @@ class UkfLocaliser:
         else:
             self.x[:3] = pose
         if covariance is not None:
-            p = np.array(covariance, np.float64)
+            c = np.array(covariance, np.float64)
+            m = c.shape[0]
+            if c.shape != (m, m) or m > n:
+                raise ValueError(f"reset: covariance of shape {c.shape} for {n} states")
+            p[:m, :m] = c
+            if m < n:
+                p[:m, m:] = 0.0
+                p[m:, :m] = 0.0
         self.P = 0.5 * (p + p.T)
+
+    @property
+    def imu_bias(self) -> tuple[float, float, float]:
+        """Gyro z (rad/s), accelerometer x and y (m/s^2) biases: the static calibration's plus,
+        with ``imu_bias_states``, the estimated states."""
+        g = self.gyro_bias_radps
+        ax, ay = float(self.accel_bias_mps2[0]), float(self.accel_bias_mps2[1])
+        if self.n > N_STATE:
+            g += float(self.x[IBG])
+            ax += float(self.x[IBAX])
+            ay += float(self.x[IBAY])
+        return g, ax, ay
+
+    def set_imu_bias(self, bias: tuple[float, float, float],
+                     covariance: FloatArray | None = None) -> None:
+        """Take IMU bias estimates (gyro z rad/s, accel x, y m/s^2) from elsewhere (the SLAM at
+        the map freeze): into the bias states (with their (3, 3) ``covariance``) when estimated,
+        else as the fixed offsets. Ends the static calibration."""
+        self.calibrating = False
+        if self.n > N_STATE:
+            self.gyro_bias_radps = 0.0
+            self.accel_bias_mps2 = np.zeros(2)
+            self.x[N_STATE:] = bias
+            if covariance is not None:
+                self.P[N_STATE:, :N_STATE] = 0.0
+                self.P[:N_STATE, N_STATE:] = 0.0
+                self.P[N_STATE:, N_STATE:] = 0.5 * (covariance + covariance.T)
+        else:
+            self.gyro_bias_radps = float(bias[0])
+            self.accel_bias_mps2 = np.array([bias[1], bias[2]], np.float64)
 
     def count(self, sensor: str, outcome: str) -> None:
         """Count one measurement's outcome (applied, rejected, skipped_...)."""
@@ -132,17 +186,18 @@ class UkfLocaliser:
     # -- sigma points -------------------------------------------------------------------------
 
     def _sigma_points(self) -> FloatArray:
-        """(13, 6) sigma points around x."""
+        """(2 n + 1, n) sigma points around x."""
         try:
             s = np.linalg.cholesky(self.P)
         except np.linalg.LinAlgError:
             w, v = np.linalg.eigh(0.5 * (self.P + self.P.T))
             s = v * np.sqrt(np.maximum(w, 1e-12))
         s = self._scale * s
-        chi = np.empty((2 * N_STATE + 1, N_STATE))
+        n = self.n
+        chi = np.empty((2 * n + 1, n))
         chi[0] = self.x
-        chi[1:N_STATE + 1] = self.x + s.T
-        chi[N_STATE + 1:] = self.x - s.T
+        chi[1:n + 1] = self.x + s.T
+        chi[n + 1:] = self.x - s.T
         return chi
 
     def _mean_cov(self, chi: FloatArray,
@@ -168,31 +223,39 @@ class UkfLocaliser:
                   or float(np.hypot(v[1] - mean[1], v[2] - mean[2]))
                   > cfg.static_accel_threshold_mps2)
         if moving:
-            self.calibrating = False
-            if self._calib_n >= cfg.static_min_samples:
-                mean = self._calib_sum / self._calib_n
-                self.gyro_bias_radps = float(mean[0])
-                self.accel_bias_mps2 = mean[1:].copy()
-                log.info("IMU static calibration from %d samples: gyro bias %.5f rad/s, "
-                         "accel bias (%.4f, %.4f) m/s^2", self._calib_n, self.gyro_bias_radps,
-                         *self.accel_bias_mps2)
-            else:
-                log.info("IMU static calibration skipped: car moved after %d samples",
-                         self._calib_n)
+            self._end_calibration()
             return False
         self._calib_sum += v
+        self._calib_sq += v * v
         self._calib_n += 1
         return True
+
+    def _end_calibration(self) -> None:
+        """The car moves: the biases are the means of the standstill samples (if enough); with
+        bias states these are fixed offsets and the states keep the residual, their variance
+        the calibration's standard error."""
+        cfg = self.config
+        self.calibrating = False
+        n = self._calib_n
+        if n < cfg.static_min_samples:
+            log.info("IMU static calibration skipped: car moved after %d samples", n)
+            return
+        mean = self._calib_sum / n
+        self.gyro_bias_radps = float(mean[0])
+        self.accel_bias_mps2 = mean[1:].copy()
+        if self.n > N_STATE:
+            var = np.maximum(self._calib_sq / n - mean * mean, 1e-12) / n
+            self.x[N_STATE:] = 0.0
+            self.P[N_STATE:, :] = 0.0
+            self.P[:, N_STATE:] = 0.0
+            self.P[N_STATE:, N_STATE:] = np.diag(var)
+        log.info("IMU static calibration from %d samples: gyro bias %.5f rad/s, "
+                 "accel bias (%.4f, %.4f) m/s^2", n, self.gyro_bias_radps, *self.accel_bias_mps2)
 
     def notify_moving(self) -> None:
         """Odometry saw motion: end the static calibration at once."""
         if self.calibrating:
-            self.calibrating = False
-            cfg = self.config
-            if self._calib_n >= cfg.static_min_samples:
-                mean = self._calib_sum / self._calib_n
-                self.gyro_bias_radps = float(mean[0])
-                self.accel_bias_mps2 = mean[1:].copy()
+            self._end_calibration()
 
     def predict(self, imu: ImuSample) -> None:
         """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2)."""
@@ -207,16 +270,18 @@ class UkfLocaliser:
             return
         self.t_s = t
         if self.calibrating and self._calibrate(imu):
-            self.x[IVX:] = 0.0
+            self.x[IVX:N_STATE] = 0.0
             return
         dt = min(dt, cfg.max_predict_dt_s)
         gz = imu.gyro_z_radps - self.gyro_bias_radps
-        ax = imu.accel_x_mps2 - self.accel_bias_mps2[0]
-        ay = imu.accel_y_mps2 - self.accel_bias_mps2[1]
+        ax = imu.accel_x_mps2 - float(self.accel_bias_mps2[0])
+        ay = imu.accel_y_mps2 - float(self.accel_bias_mps2[1])
         if cfg.imu_lever_arm:
             # Centripetal term only: the tangential one (dw/dt r) would need a differentiated
             # gyro, noisier than the term itself; vy is held by the lateral constraint anyway.
-            ax += gz * gz * self.car.imu_x_m
+            # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
+            w = gz - float(self.x[IBG]) if self.n > N_STATE else gz
+            ax += w * w * self.car.imu_x_m
         self.predict_input(ax, ay, gz, dt)
         self.count("imu", "applied")
         if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
@@ -226,7 +291,7 @@ class UkfLocaliser:
             a_max = self.car.max_lateral_accel_mps2 if cfg.rear_slip_saturation else math.inf
             vy_slip, d_vx, d_w = rear_slip_velocity(float(self.x[IVX]), float(self.x[IW]),
                                                     cfg.rear_slip_rad_per_mps2, a_max)
-            H = _row(IVY).copy()
+            H = _row(IVY, self.n)
             H[0, IVX] = -d_vx
             H[0, IW] = -d_w
             sigma = cfg.lateral_velocity_sigma_mps + cfg.lateral_slip_sigma_fraction * abs(vy_slip)
@@ -234,32 +299,52 @@ class UkfLocaliser:
                                 np.array([[sigma**2]]), gate=math.inf)
 
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
-        """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro."""
+        """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro
+        (measured; with bias states, each sigma point subtracts its own biases)."""
         cfg = self.config
         chi = self._sigma_points()
-        x, y, yaw, vx, vy, w = chi.T
+        x, y, yaw, vx, vy, w = chi.T[:N_STATE]
+        biased = self.n > N_STATE
+        if biased:
+            gyro = gyro_radps - chi[:, IBG]
+            ax = ax_mps2 - chi[:, IBAX]
+            ay = ay_mps2 - chi[:, IBAY]
+        else:
+            gyro, ax, ay = gyro_radps, ax_mps2, ay_mps2  # type: ignore[assignment]
         c, s = np.cos(yaw), np.sin(yaw)
         nu = cfg.yaw_rate_blend_nu
         out = np.empty_like(chi)
         out[:, IX] = x + (vx * c - vy * s) * dt_s
         out[:, IY] = y + (vx * s + vy * c) * dt_s
         out[:, IYAW] = yaw + w * dt_s
-        out[:, IVX] = vx + (ax_mps2 + w * vy) * dt_s
-        out[:, IVY] = vy + (ay_mps2 - w * vx) * dt_s
-        out[:, IW] = nu * w + (1.0 - nu) * gyro_radps
+        out[:, IVX] = vx + (ax + w * vy) * dt_s
+        out[:, IVY] = vy + (ay - w * vx) * dt_s
+        out[:, IW] = nu * w + (1.0 - nu) * gyro
+        if biased:
+            out[:, N_STATE:] = chi[:, N_STATE:]
         mean, cov = self._mean_cov(out, (IYAW,))
-        q_acc = (cfg.accel_sigma_mps2**2 * dt_s + cfg.accel_bias_sigma_mps2**2) * dt_s
-        q = np.array([
+        if biased:
+            # The biases are states: only the white noise (and the unmodelled) is process noise.
+            q_acc = cfg.accel_sigma_mps2**2 * dt_s * dt_s + cfg.accel_model_sigma_mps2**2 * dt_s
+            q_yaw = cfg.yaw_model_sigma_rad_rts**2 * dt_s
+        else:
+            q_acc = (cfg.accel_sigma_mps2**2 * dt_s + cfg.accel_bias_sigma_mps2**2) * dt_s
+            q_yaw = cfg.gyro_bias_sigma_radps**2 * dt_s
+        q = [
             1e-6 * dt_s,
             1e-6 * dt_s,
-            cfg.gyro_bias_sigma_radps**2 * dt_s,
+            q_yaw,
             q_acc,
             q_acc + cfg.lateral_model_sigma_mps2**2 * dt_s,
             (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 + nu**2 * 1e-4 * dt_s,
-        ])
+        ]
+        if biased:
+            q += [cfg.gyro_bias_walk_radps_rths**2 * dt_s,
+                  cfg.accel_bias_walk_mps2_rths**2 * dt_s,
+                  cfg.accel_bias_walk_mps2_rths**2 * dt_s]
         mean[IYAW] = wrap_angle(float(mean[IYAW]))
         self.x = mean
-        cov[np.diag_indices(N_STATE)] += q
+        cov[np.diag_indices(self.n)] += q
         if cfg.use_odometry and cfg.odometry_scale_sigma > 0.0:
             # The tyre radius is known to a fraction: a systematic along-track speed error that
             # repeated odometry updates cannot average out. Its position effect is spread as an
@@ -291,11 +376,11 @@ class UkfLocaliser:
             return False
         K = scipy.linalg.cho_solve(cho, PHt.T, check_finite=False).T
         if mask is not None:
-            keep = np.zeros(N_STATE, bool)
+            keep = np.zeros(self.n, bool)
             keep[list(mask)] = True
             K[~keep] = 0.0
             self.x = self.x + K @ y
-            ikh = np.eye(N_STATE) - K @ H
+            ikh = np.eye(self.n) - K @ H
             P = ikh @ P @ ikh.T + K @ R @ K.T
         else:
             self.x = self.x + K @ y
@@ -359,13 +444,13 @@ class UkfLocaliser:
         else:
             w = math.nan
         if math.isfinite(w):
-            H = np.zeros((2, N_STATE))
+            H = np.zeros((2, self.n))
             H[0, IVX] = 1.0
             H[1, IW] = 1.0
             y = np.array([v - self.x[IVX], w - self.x[IW]])
             R = np.diag([cfg.odometry_speed_sigma_mps**2, cfg.odometry_yaw_rate_sigma_radps**2])
         else:
-            H = _row(IVX)
+            H = _row(IVX, self.n)
             y = np.array([v - self.x[IVX]])
             R = np.array([[cfg.odometry_speed_sigma_mps**2]])
         return self._update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
@@ -381,7 +466,7 @@ class UkfLocaliser:
             self.count("gnss_position", "rejected_invalid")
             return False
         R = np.eye(2) * cfg.gnss_position_sigma_m**2 if cov is None else np.asarray(cov)
-        H = np.zeros((2, N_STATE))
+        H = np.zeros((2, self.n))
         H[0, IX] = 1.0
         H[1, IY] = 1.0
         return self._update_linear("gnss_position", z - self.x[:2], H, R,
@@ -417,13 +502,16 @@ class UkfLocaliser:
                                       cfg.gnss_velocity_gate_sigma)
 
     def update_cones_on_map(self, cones: Sequence[ConeDetection], cone_map: ConeMap,
-                            cones_xy_m: FloatArray | None = None) -> int:
+                            cones_xy_m: FloatArray | None = None,
+                            full_update: bool = False,
+                            cone_sigma_m: float | None = None) -> int:
         """Seed 001's cones model against a known map; returns how many cones were applied.
 
         ``cones`` are vehicle-frame detections (their positions may be given motion-compensated
         as ``cones_xy_m`` (N, 2)); each is paired with the nearest map cone within
         ``cone_association_m`` of its predicted world position, gated one by one (Mahalanobis),
-        then all go in one batched, position-masked update.
+        then all go in one batched, position-masked update (``full_update``: an unmasked one,
+        yaw and IMU biases too); ``cone_sigma_m`` overrides the configured detection noise.
         """
         cfg = self.config
         if not cfg.use_cones or len(cone_map) == 0 or not cones:
@@ -456,7 +544,8 @@ class UkfLocaliser:
         # With m = p + R(yaw) d + noise: z - p_hat ~ (p - p_hat) + J (yaw - yaw_hat), where
         # J = dR/dyaw d = (-rd_y, rd_x): H = [I, J] on (x, y, yaw).
         J = np.stack([-rd[:, 1], rd[:, 0]], axis=1)
-        R_each = cfg.cone_sigma_m**2 * np.eye(2) + cone_map.covariance[idx[paired]]
+        sigma = cfg.cone_sigma_m if cone_sigma_m is None else cone_sigma_m
+        R_each = sigma**2 * np.eye(2) + cone_map.covariance[idx[paired]]
         P3 = self.P[:3, :3]
         accepted = []
         for i in range(z.shape[0]):
@@ -471,7 +560,7 @@ class UkfLocaliser:
         if not accepted:
             return 0
         k = len(accepted)
-        H = np.zeros((2 * k, N_STATE))
+        H = np.zeros((2 * k, self.n))
         R = np.zeros((2 * k, 2 * k))
         for j, i in enumerate(accepted):
             H[2 * j, IX] = 1.0
@@ -480,7 +569,9 @@ class UkfLocaliser:
             H[2 * j + 1, IYAW] = J[i, 1]
             R[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R_each[i]
         y = y_all[accepted].reshape(-1)
-        mask = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
+        mask: tuple[int, ...] | None = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
+        if full_update:
+            mask = None
         ok = self._update_linear("cones_batch", y, H, R, gate=math.inf, mask=mask)
         if ok:
             self.stats.setdefault("cones", Counter())["applied"] += k
@@ -491,8 +582,8 @@ def _wrap(a: FloatArray) -> FloatArray:
     return np.mod(a + math.pi, 2.0 * math.pi) - math.pi
 
 
-def _row(i: int) -> FloatArray:
-    h = np.zeros((1, N_STATE))
+def _row(i: int, n: int = N_STATE) -> FloatArray:
+    h = np.zeros((1, n))
     h[0, i] = 1.0
     return h
 
