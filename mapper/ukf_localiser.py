@@ -121,7 +121,7 @@ class UkfLocaliser:
             if old_bias_p is not None:
                 p[N_STATE:, N_STATE:] = old_bias_p
         if isinstance(pose, PoseEstimate):
-            self.x[:] = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps,
+            self.x[:N_STATE] = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps,
                          pose.yaw_rate_radps)
             if np.all(np.isfinite(pose.covariance)) and np.any(pose.covariance):
                 p[:3, :3] = pose.covariance
