@@ -200,8 +200,7 @@ class EkfSlam:
         self._pbuf = np.zeros((cap, cap))
         self._n = self._pd
         self._pbuf[:self._pd, :self._pd] = np.diag(self._initial_vehicle_variances())
-        self._f_acc = np.eye(self._pd)
-        self._f_pending = False
+        self._reset_lazy()
         # Per-landmark bookkeeping, one row per landmark.
         self._ids = np.zeros(0, np.int64)
         self._first_seen_m = np.zeros(0)
@@ -232,7 +231,8 @@ class EkfSlam:
 
     @property
     def x(self) -> FloatArray:
-        """The state vector (5 + 2 N,), a view."""
+        """The state vector (V + 2 N,), a view (landmark means brought up to date)."""
+        self._flush_mean()
         return self._xbuf[: self._n]
 
     @property
@@ -249,6 +249,7 @@ class EkfSlam:
     @property
     def landmarks_xy_m(self) -> FloatArray:
         """Landmark positions (N, 2), world frame (a copy)."""
+        self._flush_mean()
         return self._xbuf[self._pd: self._n].reshape(-1, 2).copy()
 
     @property
@@ -295,8 +296,7 @@ class EkfSlam:
         self._xbuf[:n] = x
         self._pbuf[:n, :n] = p
         self._n = n
-        self._f_acc = np.eye(self._pd)
-        self._f_pending = False
+        self._reset_lazy()
         m = self.n_landmarks
         self._ids = np.arange(m, dtype=np.int64)
         self._next_id = m
@@ -310,21 +310,57 @@ class EkfSlam:
                          ) -> bool:
         """The batched update for KNOWN associations: detections ``z`` (a, 2) in the vehicle
         frame at the filter's time, noise ``r`` (a, 2, 2), landmark indices (a,)."""
+        self._flush()
         return self._apply_cone_update(np.asarray(z, np.float64).reshape(-1, 2),
                                        np.asarray(r, np.float64).reshape(-1, 2, 2),
                                        np.asarray(landmarks, np.int64).reshape(-1))
 
-    def _flush(self) -> None:
-        """Apply the accumulated pose Jacobian to the pose-landmark cross block (eq. 5.8)."""
-        if not self._f_pending:
-            return
-        n = self._n
-        if n > self._pd:
-            cross = self._f_acc @ self._pbuf[:self._pd, self._pd:n]
-            self._pbuf[:self._pd, self._pd:n] = cross
-            self._pbuf[self._pd:n, :self._pd] = cross.T
-        self._f_acc = np.eye(self._pd)
+    def _reset_lazy(self) -> None:
+        v = self._pd
+        self._f_acc = np.eye(v)
         self._f_pending = False
+        self._lazy_b = np.zeros((v, v))
+        self._lazy_c = np.zeros(v)
+        self._b_pending = False
+        self._c_pending = False
+
+    def _flush_mean(self) -> None:
+        """Apply the pending vehicle-only updates to the landmark means: ``x_L += P_Lv0 c``."""
+        if not self._c_pending:
+            return
+        v, n = self._pd, self._n
+        if n > v:
+            self._xbuf[v:n] += self._lazy_c @ self._pbuf[:v, v:n]
+        self._lazy_c = np.zeros(v)
+        self._c_pending = False
+
+    def _flush(self) -> None:
+        """Bring the landmark blocks up to date (eq. 5.8 and the compressed updates).
+
+        Predictions and updates that touch only the vehicle states (odometry, GPS) change the
+        vehicle block at once and leave the landmarks to this: with ``P_vL0``, ``P_LL0``,
+        ``x_L0`` as they were at the last flush, the cross block is ``M P_vL0`` (``M`` the
+        product of the prediction Jacobians and the updates' ``I - K_v H``), the landmark block
+        ``P_LL0 - P_Lv0 B P_vL0`` and the means ``x_L0 + P_Lv0 c`` (``B``, ``c`` summed over the
+        updates). Exact, and O(V) per update instead of O(N^2) (Guivant and Nebot's compressed
+        filter)."""
+        self._flush_mean()
+        if not (self._f_pending or self._b_pending):
+            return
+        v, n = self._pd, self._n
+        if n > v:
+            p = self._pbuf
+            cross0 = p[:v, v:n]
+            if self._b_pending:
+                bc = self._lazy_b @ cross0
+                p[v:n, v:n] -= cross0.T @ bc
+            cross = self._f_acc @ cross0 if self._f_pending else cross0.copy()
+            p[:v, v:n] = cross
+            p[v:n, :v] = cross.T
+        self._f_acc = np.eye(v)
+        self._f_pending = False
+        self._lazy_b = np.zeros((v, v))
+        self._b_pending = False
 
     # ----------------------------------------------------------------------------------------
     # Prediction
@@ -470,6 +506,38 @@ class EkfSlam:
         self._xbuf[2] = wrap_angle(float(self._xbuf[2]))
         return True
 
+    def _update_vehicle(self, cols: NDArray[np.int64], h: FloatArray, innovation: FloatArray,
+                        r: FloatArray) -> bool:
+        """EKF update whose ``H`` touches only vehicle states (``cols`` < V): the vehicle block
+        now, the landmarks lazily (see :meth:`_flush`)."""
+        v = self._pd
+        hv = np.zeros((h.shape[0], v))
+        hv[:, cols] = h
+        pvv = self._pbuf[:v, :v]
+        hp = hv @ pvv                                          # (k, V)
+        s = hp @ hv.T + r
+        try:
+            factor = cho_factor(s, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            self.stats["update_not_positive_definite"] += 1
+            log.warning("EKF SLAM update skipped: S not positive definite")
+            return False
+        s_inv_h = cho_solve(factor, hv, check_finite=False)    # S^-1 H (k, V)
+        s_inv_y = cho_solve(factor, innovation, check_finite=False)
+        kt = cho_solve(factor, hp, check_finite=False)         # K^T = S^-1 H P_vv (k, V)
+        self._xbuf[:v] += hp.T @ s_inv_y
+        new_pvv = pvv - hp.T @ kt
+        self._pbuf[:v, :v] = 0.5 * (new_pvv + new_pvv.T)
+        if self._n > v:
+            m = self._f_acc
+            hm = hv @ m                                        # H M (k, V)
+            self._lazy_c += hm.T @ s_inv_y
+            self._lazy_b += hm.T @ (s_inv_h @ m)
+            self._f_acc = m - kt.T @ hm                        # (I - K_v H) M
+            self._f_pending = self._b_pending = self._c_pending = True
+        self._xbuf[2] = wrap_angle(float(self._xbuf[2]))
+        return True
+
     def _symmetrise(self) -> None:
         """P = (P + P^T) / 2 (the rank-k update is symmetric already; this guards round-off)."""
         p = self._pbuf[: self._n, : self._n]
@@ -519,7 +587,7 @@ class EkfSlam:
                      + self.cfg.lateral_slip_sigma_fraction * abs(vy_slip))
         r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2, lat_sigma ** 2])
         cols = np.array([2, 3, 4, 5]) if biased else np.array([2, 3, 4])
-        self._update(cols, h, np.array([v, 0.0]) - pred, r)
+        self._update_vehicle(cols, h, np.array([v, 0.0]) - pred, r)
         self.stats["odometry_updates"] += 1
 
     def update_gps_xy(self, xy_world_m: FloatArray, cov: FloatArray,
@@ -544,7 +612,7 @@ class EkfSlam:
         if d2 > self._gps_gate:
             self.stats["gps_rejected_gate"] += 1
             return False
-        ok = self._update(np.array([0, 1]), np.eye(2), y, r)
+        ok = self._update_vehicle(np.array([0, 1]), np.eye(2), y, r)
         self.stats["gps_updates"] += int(ok)
         return ok
 
@@ -795,6 +863,7 @@ class EkfSlam:
         m = self.n_landmarks
         if not cones or m == 0:
             return 0
+        self._flush_mean()
         px, py, yaw = ((pose.x_m, pose.y_m, pose.yaw_rad) if pose is not None
                        else tuple(float(v) for v in self._xbuf[:3]))
         arr = np.array([(d.x_m, d.y_m, int(d.colour), d.confidence) for d in cones], np.float64)
@@ -854,6 +923,7 @@ class EkfSlam:
         c = self.cfg
         if self.odometer_m < c.min_lap_distance_m or self.n_landmarks == 0:
             return False
+        self._flush()
         big = self._big_mask()
         age_created = self.odometer_m - self._first_seen_m
         age_seen = self.odometer_m - self._last_seen_m
