@@ -201,6 +201,7 @@ class EkfSlam:
         self._n = self._pd
         self._pbuf[:self._pd, :self._pd] = np.diag(self._initial_vehicle_variances())
         self._reset_lazy()
+        self._scratch = np.empty(0)
         # Per-landmark bookkeeping, one row per landmark.
         self._ids = np.zeros(0, np.int64)
         self._first_seen_m = np.zeros(0)
@@ -499,7 +500,13 @@ class EkfSlam:
         # V^T = (H P)^T L^-T: one BLAS triangular solve with the Cholesky factor, (n, k).
         vt = dtrsm(1.0, factor[0], hp.T, side=1, lower=1, trans_a=1)
         self._xbuf[:n] += hp.T @ cho_solve(factor, innovation, check_finite=False)
-        p -= vt @ vt.T                                        # P - K (H P), exactly symmetric
+        # P - K (H P), exactly symmetric; the (n, n) product goes into a buffer kept between
+        # updates (a fresh one is page-faulted in on every update: 3 ms instead of 0.5 at n 600).
+        if self._scratch.size < n * n:
+            self._scratch = np.empty(max(n * n, 2 * self._scratch.size))
+        vvt = self._scratch[:n * n].reshape(n, n)
+        np.matmul(vt, vt.T, out=vvt)
+        p -= vvt
         self._updates += 1
         if self._updates % _SYMMETRISE_EVERY == 0:
             self._symmetrise()
