@@ -86,6 +86,13 @@ class ConeDetector:
         idx = np.flatnonzero(keep)
         x = points[idx, 0]
         y = points[idx, 1]
+        # Most non-ground returns are the car itself, within min_range_m: drop them (and those
+        # far out) on the squared range first, with a margin so that the exact tests below
+        # decide alone; the costly hypot and arctan2 then run on the few left.
+        r2 = x * x + y * y
+        near = (r2 > cfg.min_range_m**2 * (1.0 - 1e-9)) & (
+            r2 < (cfg.max_range_m + 1.0) ** 2 * (1.0 + 1e-9))
+        idx, x, y = idx[near], x[near], y[near]
         r = np.hypot(x, y)
         bearing = np.arctan2(y, x)
         xv = x + self.lidar_x_m

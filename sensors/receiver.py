@@ -299,16 +299,20 @@ class Intake:
 
     def all_rejects(self) -> dict[str, int]:
         """The parser's rejects merged with this intake's own."""
-        merged: collections.Counter[str] = collections.Counter()
+        parser: dict[str, int] = {}
         for _ in range(3):  # the parser's counter may change under us in its own thread
             try:
-                merged = collections.Counter(dict(self.parser.rejects))
+                parser = dict(self.parser.rejects)
                 break
             except RuntimeError:
                 continue
         with self._lock:
-            merged.update(self.rejects)
-        return {k: int(v) for k, v in sorted(merged.items()) if v}
+            own = dict(self.rejects) if self.rejects else {}
+        if not parser and not own:  # the usual case, asked on every control tick
+            return {}
+        for k, v in own.items():
+            parser[k] = parser.get(k, 0) + v
+        return {k: int(v) for k, v in sorted(parser.items()) if v}
 
     def stats(self, now_s: float, *, connected: bool = True, running: bool = False,
               reconnects: int = 0) -> ReceiverStats:
