@@ -202,6 +202,13 @@ class EkfSlam:
         self._pbuf[:self._pd, :self._pd] = np.diag(self._initial_vehicle_variances())
         self._reset_lazy()
         self._scratch = np.empty(0)
+        self._q_input = np.array([c.gyro_noise_density_radps_rthz, c.accel_noise_density_mps2_rthz,
+                                  c.accel_noise_density_mps2_rthz]) ** 2
+        """Input noise densities squared; divided by the step for Q (seed 000)."""
+        self._q_walk = np.array([c.gyro_bias_walk_radps_rths, c.accel_bias_walk_mps2_rths,
+                                 c.accel_bias_walk_mps2_rths]) ** 2
+        self._bias_diag = (POSE_DIM + BIAS_DIM + 1) * np.arange(POSE_DIM, POSE_DIM + BIAS_DIM)
+        """Flat indices of the bias states' diagonal in the (8, 8) vehicle block."""
         # Per-landmark bookkeeping, one row per landmark.
         self._ids = np.zeros(0, np.int64)
         self._first_seen_m = np.zeros(0)
@@ -445,16 +452,13 @@ class EkfSlam:
 
     def _propagate(self, dt: float) -> None:
         w, ax, ay = self._corrected_input()
-        c = self.cfg
         k = 0.5 * dt * dt if self._heading_seed else 0.5 * dt
         pd = self._pd
         pose = self._xbuf[:POSE_DIM]
         new, f5, g = motion_model(pose, w, ax, ay, dt, k)
         self.odometer_m += dt * math.hypot(pose[3], pose[4])
         self._xbuf[:POSE_DIM] = new
-        q_u = np.array([c.gyro_noise_density_radps_rthz ** 2,
-                        c.accel_noise_density_mps2_rthz ** 2,
-                        c.accel_noise_density_mps2_rthz ** 2]) / dt
+        q_u = self._q_input / dt
         pxx = self._pbuf[:pd, :pd]
         if pd == POSE_DIM:
             f = f5
@@ -467,10 +471,10 @@ class EkfSlam:
             f[:POSE_DIM, POSE_DIM:] = -g
             new_pxx = f @ pxx @ f.T
             new_pxx[:POSE_DIM, :POSE_DIM] += (g * q_u) @ g.T
-            walk = np.array([c.gyro_bias_walk_radps_rths, c.accel_bias_walk_mps2_rths,
-                             c.accel_bias_walk_mps2_rths]) ** 2 * dt
-            new_pxx[POSE_DIM:, POSE_DIM:] += np.diag(walk)
-        self._pbuf[:pd, :pd] = 0.5 * (new_pxx + new_pxx.T)
+            new_pxx.flat[self._bias_diag] += self._q_walk * dt
+        pxx[...] = new_pxx
+        pxx += new_pxx.T
+        pxx *= 0.5
         self._f_acc = f @ self._f_acc
         self._f_pending = True
 
@@ -529,9 +533,14 @@ class EkfSlam:
             self.stats["update_not_positive_definite"] += 1
             log.warning("EKF SLAM update skipped: S not positive definite")
             return False
-        s_inv_h = cho_solve(factor, hv, check_finite=False)    # S^-1 H (k, V)
-        s_inv_y = cho_solve(factor, innovation, check_finite=False)
-        kt = cho_solve(factor, hp, check_finite=False)         # K^T = S^-1 H P_vv (k, V)
+        rhs = np.empty((s.shape[0], 2 * v + 1))
+        rhs[:, :v] = hv
+        rhs[:, v:2 * v] = hp
+        rhs[:, 2 * v] = innovation
+        sol = cho_solve(factor, rhs, check_finite=False)       # one solve for all three
+        s_inv_h = sol[:, :v]                                   # S^-1 H (k, V)
+        kt = sol[:, v:2 * v]                                   # K^T = S^-1 H P_vv (k, V)
+        s_inv_y = sol[:, 2 * v]
         self._xbuf[:v] += hp.T @ s_inv_y
         new_pvv = pvv - hp.T @ kt
         self._pbuf[:v, :v] = 0.5 * (new_pvv + new_pvv.T)
