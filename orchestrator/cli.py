@@ -62,6 +62,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     drive.add_argument("--no-record", dest="record", action="store_false", default=True)
     drive.add_argument("--seconds", type=float, help="stop after this long (s)")
     drive.add_argument("--render", action="store_true", help="render frames of the map")
+    drive.add_argument("--rt-priority", type=int, default=None, metavar="N",
+                       help="SCHED_FIFO priority of the control loop (default 10; 0: none)")
     drive.set_defaults(func=_drive)
 
     record = subparsers.add_parser(
@@ -136,6 +138,8 @@ def _drive(args: argparse.Namespace, config: AppConfig) -> int:
 
     options = DriveOptions(out_dir=args.out or default_out_dir(), laps=args.laps,
                            record=args.record, seconds=args.seconds, render=args.render)
+    if args.rt_priority is not None:
+        options.realtime_priority = args.rt_priority
     summary = LiveMain(config, options).run()
     print(json.dumps(summary, indent=2))
     return 0

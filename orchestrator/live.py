@@ -26,6 +26,7 @@ import json
 import logging
 import math
 import multiprocessing as mp
+import os
 import signal
 import sys
 import threading
@@ -57,9 +58,12 @@ from sensors.manager import SOURCES, SensorManager
 log = logging.getLogger(__name__)
 
 WORKER_START_TIMEOUT_S = 60.0
-"""The executive process must be up (sensors started) within this long."""
+"""The executive process must have built its layers within this long."""
 WORKER_STOP_TIMEOUT_S = 30.0
 """At the end it must close its recording and send its statistics within this long."""
+DEFAULT_REALTIME_PRIORITY = 10
+"""SCHED_FIFO priority of the reactive layer (1..99; a modest one, below the kernel's own
+real-time threads)."""
 HEALTH_RECORD_EVERY = 10
 """Every this many control ticks the health the controller saw is recorded."""
 
@@ -75,6 +79,34 @@ class DriveOptions:
     seconds: float | None = None
     render: bool = False
     recording_name: str = "recording.mcap"
+    realtime_priority: int = DEFAULT_REALTIME_PRIORITY
+    """SCHED_FIFO priority of the reactive layer (control loop and CAN receiver); 0: none."""
+
+
+def set_realtime_priority(priority: int) -> bool:
+    """Put the calling thread (and the threads it starts later) under SCHED_FIFO at
+    ``priority``; False, with a warning, when the system does not allow it (it needs root,
+    CAP_SYS_NICE or an ``rtprio`` limit) or ``priority`` is 0.
+
+    The control loop sleeps most of each period; at real-time priority a busy machine cannot
+    delay its wake-up (the kernel still keeps 5 % of the CPU for the rest by default).
+    """
+    if priority <= 0:
+        return False
+    sched_setscheduler = getattr(os, "sched_setscheduler", None)
+    if sched_setscheduler is None:
+        log.warning("no real-time scheduling on this system: the control period depends on "
+                    "the load")
+        return False
+    try:
+        sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, ValueError) as exc:
+        log.warning("real-time priority %d refused (%s): the control period depends on the "
+                    "load (run as root, with CAP_SYS_NICE, or raise the rtprio limit)",
+                    priority, exc)
+        return False
+    log.info("reactive layer at SCHED_FIFO priority %d", priority)
+    return True
 
 
 def merge_health(now_s: float, own: Health, remote: Health | None,
@@ -123,6 +155,8 @@ class LiveMain:
         self.timeouts_s = {s: float(getattr(sc, s).timeout_s) for s in SOURCES}
         self.times = StageTimes()
         self.periods_s: list[float] = []
+        self.wake_late_s: list[float] = []
+        """How late each tick woke after its scheduled time (s)."""
         self.errors: list[str] = []
         self.pose: PoseEstimate | None = None
         self.plan: Plan | None = None
@@ -131,7 +165,8 @@ class LiveMain:
         self.landmarks = 0
         self.worker_health: Health | None = None
         self.worker_stats: dict[str, Any] = {}
-        self.worker_ready = False
+        self.worker_loaded = False
+        self.realtime = False
         self.stop = threading.Event()
         self._link: Link | None = None
         self._process: Any = None
@@ -158,8 +193,8 @@ class LiveMain:
             self.plan = message[1]
         elif kind == "health":
             self.worker_health = message[1]
-        elif kind == "ready":
-            self.worker_ready = True
+        elif kind == "loaded":
+            self.worker_loaded = True
         elif kind == "error":
             log.error("executive process: %s", message[1])
             self.errors.append(message[1])
@@ -178,11 +213,13 @@ class LiveMain:
             self.errors.append(f"executive process died (exit code {code})")
             log.error("the executive process died (exit code %s)", code)
 
-    def _wait_ready(self) -> bool:
+    def _wait_loaded(self) -> bool:
+        """Wait until the executive process has built its layers (it starts its sensors when
+        told to)."""
         end = time.monotonic() + WORKER_START_TIMEOUT_S
         while not self.stop.is_set() and not self.errors:
             self._drain()
-            if self.worker_ready:
+            if self.worker_loaded:
                 return True
             if time.monotonic() > end:
                 self.errors.append(
@@ -224,8 +261,15 @@ class LiveMain:
         stop_reason = "signal"
         try:
             self._start_worker()
-            if self._wait_ready():
-                self.sensors.start()
+            if self._wait_loaded():
+                # The run's clock starts now, with the sensors (a sensor stamping its own time,
+                # as the camera does, counts from when the stack opened the bus).
+                self.clock = RealClock()
+                self.sensors = SensorManager(control_config(self.config), self.clock)
+                assert self._link is not None
+                self._link.send_nowait(("start", self.clock))
+                self.realtime = set_realtime_priority(self.options.realtime_priority)
+                self.sensors.start()  # the CAN receiver thread inherits the priority
                 stop_reason = self._loop()
             if self.errors:
                 stop_reason = "; ".join(self.errors)
@@ -254,6 +298,7 @@ class LiveMain:
             next_s += period_s
             self.clock.sleep_until(next_s)
             now_s = self.clock.now_s()
+            self.wake_late_s.append(now_s - next_s)
             if math.isfinite(last_tick_s):
                 self.periods_s.append(now_s - last_tick_s)
             last_tick_s = now_s
@@ -331,6 +376,10 @@ class LiveMain:
                 "control_period_max_ms": round(float(periods_ms.max()), 3),
                 "control_ticks": int(periods_ms.size + 1),
             })
+        timing["realtime_priority"] = self.options.realtime_priority if self.realtime else None
+        if self.wake_late_s:
+            late_ms = np.asarray(self.wake_late_s) * 1e3
+            timing["control_wake_late_p99_ms"] = round(float(np.percentile(late_ms, 99)), 3)
         stages = self.times.summary_ms()
         stages.update(self.worker_stats.get("stages_ms", {}))
         timing["stages_ms"] = stages

@@ -14,9 +14,10 @@ the control loop. Here:
 - the main thread takes the control process's messages: CAN frames for the mapper, commands and
   health for the recording, ``stop``.
 
-Messages to the control process (tuples): ``("ready",)``, ``("pose", pose, loop_closed,
-landmarks)``, ``("plan", plan)``, ``("health", health)``, ``("error", text)``,
-``("final", stats)``. From it: ``("tick", now_s, can_raw, can_readings, command, health)``
+Messages to the control process (tuples): ``("loaded",)`` (layers built),
+``("pose", pose, loop_closed, landmarks)``, ``("plan", plan)``, ``("health", health)``,
+``("error", text)``, ``("final", stats)``. From it: ``("start", clock)`` (the run's clock:
+start the receivers), ``("tick", now_s, can_raw, can_readings, command, health)``
 (``command`` / ``health`` may be None) and ``("stop",)``.
 
 The process ignores SIGINT and SIGTERM (Ctrl-C reaches the whole process group): the control
@@ -105,6 +106,7 @@ class Worker:
         self.clock = clock
         self.link = link
         self.sensors = SensorManager(worker_config(config), clock)
+        self._sensor_manager = SensorManager
         self.mapper = Mapper(config) if options.control else None
         self.planner = PathPlanner(config) if options.control else None
         self.hasher = HashSink()
@@ -257,6 +259,12 @@ class Worker:
         else:
             log.warning("unknown message from the control process: %r", kind)
 
+    def _start(self, clock: RealClock) -> None:
+        """Take the run's clock (it starts with the sensors) and start the receivers."""
+        self.clock = clock
+        self.sensors = self._sensor_manager(worker_config(self.config), clock)
+        self.sensors.start()
+
     def run(self) -> None:
         """Start the layers, serve the control process until the end, then shut down."""
         threads = [threading.Thread(target=self._executive, name="mapper", daemon=True),
@@ -264,11 +272,20 @@ class Worker:
         if self.planner is not None:
             threads.append(threading.Thread(target=self._deliberative, name="planner",
                                             daemon=True))
-        self.sensors.start()
-        for thread in threads:
-            thread.start()
-        self.link.send(("ready",))
+        self.link.send(("loaded",))
+        started = False
         try:
+            while not self.stop.is_set() and not started:
+                for message in self.link.recv(0.05):
+                    if message[0] == "start":
+                        self._start(message[1])
+                        started = True
+                    else:
+                        self._on_message(message)
+                if self.link.closed:
+                    self.stop.set()
+            for thread in threads if started else ():
+                thread.start()
             while not self.stop.is_set():
                 for message in self.link.recv(0.05):
                     self._on_message(message)
@@ -282,7 +299,8 @@ class Worker:
         finally:
             self.stop.set()
             for thread in threads:
-                thread.join(2.0)
+                if thread.is_alive():
+                    thread.join(2.0)
             self.sensors.stop()
             if self.recorder is not None:
                 self.recorder.close()
