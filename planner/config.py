@@ -49,6 +49,9 @@ class PlannerConfig:
     extension_m: float = 12.0
     """Length the chosen offset is held along the baseframe beyond the horizon (for look-ahead)."""
     path_step_m: float = 0.5
+    stitch_tolerance_m: float = 0.0
+    """A new manoeuvre starts from the previous one's offset and slope at the car's arc length
+    when the car is within this of it (0: always from the car's pose and heading)."""
     cone_clearance_m: float = 0.4
     """Cone centre to car side: half the car's width plus this, at every point of a candidate."""
     cone_clearance_near_m: float = 0.15
@@ -70,7 +73,7 @@ class PlannerConfig:
     speed_mode: Literal["profile", "two_level"] = "profile"
     friction_safety_factor: float = 0.7
     """Fraction of the car's lateral, drive and brake limits the profile plans with."""
-    max_speed_mps: float = 25.0
+    max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0
     two_level_turn_rad: float = 0.35

@@ -91,15 +91,23 @@ class ManoeuvreGenerator:
         speed_mps: float,
         cones_xy_m: FloatArray,
         last_offset_m: float | None,
+        start: tuple[float, float] | None = None,
     ) -> tuple[list[Candidate], int]:
         """All candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
-        none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame)."""
+        none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame).
+
+        ``start`` = (d, dd/ds) overrides the start state (offset (m) and slope) taken from the
+        car: the planner passes the previous plan's state at s0 so that successive plans agree
+        and the controller, not the replanning, corrects the car's deviation from the path."""
         c = self.config
         horizon = self.horizon_m(speed_mps)
-        _, _, h0, k0 = frame.sample(s0_m)
-        dpsi = math.remainder(yaw_rad - float(h0), 2.0 * math.pi)
-        dpsi = float(np.clip(dpsi, -1.2, 1.2))
-        slope0 = math.tan(dpsi) * (1.0 - float(k0) * d0_m)
+        if start is not None:
+            d0_m, slope0 = float(start[0]), float(start[1])
+        else:
+            _, _, h0, k0 = frame.sample(s0_m)
+            dpsi = math.remainder(yaw_rad - float(h0), 2.0 * math.pi)
+            dpsi = float(np.clip(dpsi, -1.2, 1.2))
+            slope0 = math.tan(dpsi) * (1.0 - float(k0) * d0_m)
         total = horizon + c.extension_m
         if not frame.closed:  # an open frame ends: so do the candidates
             total = min(total, frame.length_m - s0_m)

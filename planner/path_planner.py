@@ -56,6 +56,7 @@ class PathPlanner:
         self.autonomous = False
         self._s_hint: float | None = None
         self._last_offset: float | None = None
+        self._last_chosen: Candidate | None = None
         self._s_start: float | None = None
         self._progress_m = 0.0
         self.lap = 0
@@ -165,6 +166,7 @@ class PathPlanner:
         self._s_hint = None
         self._s_start = None
         self._progress_m = 0.0
+        self._last_chosen = None
         self.lap = 0
         pose = map_state.pose
         if self.frame is not None and math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
@@ -219,17 +221,20 @@ class PathPlanner:
             near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)
             cones = cones[near < self.config.cone_search_radius_m]
         speed = pose.speed_mps
+        start = self._stitch(frame, s0, d0)
         cands, best = self.generator.generate(frame, s0, d0, pose.yaw_rad, speed, cones,
-                                              self._last_offset)
+                                              self._last_offset, start)
         waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
         if not cands:
             return self._empty_plan(now_s, waypoints)
         if best >= 0:
             chosen = cands[best]
             self._last_offset = chosen.offset_m
+            self._last_chosen = chosen
             targets = self._targets(chosen, now_s, stop=False)
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
+            self._last_chosen = None
             logger.warning("no feasible manoeuvre at s=%.1f m: stopping", s0)
             fallback = max(range(len(cands)), key=lambda i: cands[i].clearance_m)
             targets = self._targets(cands[fallback], now_s, stop=True)
@@ -243,6 +248,28 @@ class PathPlanner:
             waypoints_xy_m=waypoints,
             lap=self.lap,
         )
+
+    def _stitch(self, frame: SplineBaseframe, s0: float, d0: float) -> tuple[float, float] | None:
+        """The previous plan's Frenet offset and slope at ``s0`` when the car is within
+        ``stitch_tolerance_m`` of it (the new plan continues the old one); None to start from
+        the car (first plan, a jump of the pose, or the car far off the plan)."""
+        last = self._last_chosen
+        tol = self.config.stitch_tolerance_m
+        if last is None or tol <= 0.0 or len(last.s_m) < 3:
+            return None
+        u = s0 - float(last.s_m[0])
+        if frame.closed:
+            u = u % frame.length_m
+        span = float(last.s_m[-1] - last.s_m[0])
+        if not 0.0 <= u <= 0.5 * span:
+            return None
+        uu = last.s_m - last.s_m[0]
+        d_prev = float(np.interp(u, uu, last.d_m))
+        slope = float(np.interp(u, uu, np.gradient(last.d_m, uu)))
+        if abs(d0 - d_prev) > tol:
+            self.rejects["replan_from_car"] += 1
+            return None
+        return d_prev, slope
 
     def _targets(self, cand: Candidate, now_s: float, stop: bool) -> TargetStates:
         """Discretise a candidate into timed target states with friction-limited speeds."""

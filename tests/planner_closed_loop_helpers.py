@@ -166,6 +166,8 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
         if step % 10 == 0:
             if track.is_off_track(fp):
                 off += 1
+            _, lateral, _ = track.locate(car.x_m, car.y_m)
+            max_offset = max(max_offset, abs(lateral))
         if controller.state in (AsState.FINISHED, AsState.EMERGENCY) and car.v_mps < 0.01:
             break
     return LoopResult(lap_times, hits, off, max_offset, controller.state, controller.stop_reason,

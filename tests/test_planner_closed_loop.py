@@ -37,3 +37,16 @@ def test_unknown_track_from_the_cone_map_default() -> None:
     result = run_closed_loop(config, track, laps=1, max_time_s=60.0)
     assert result.cones_hit == set()
     assert result.final_state == AsState.FINISHED
+
+
+def test_generated_track_fast_lap_stays_near_the_centreline() -> None:
+    """gen:2 (long straights) on the vehicle model: the car must not weave at speed. With perfect
+    pose the rear axle stays within 0.75 m of the centreline (half width 1.85 m, car 1.4 m wide),
+    leaving about 0.3 m for localisation error before a cone is touched."""
+    config = AppConfig()
+    track = load_track("gen:2")
+    result = run_closed_loop(config, track, laps=1, max_time_s=60.0, dynamic=True)
+    assert result.cones_hit == set()
+    assert result.off_track == 0
+    assert result.final_state == AsState.FINISHED
+    assert result.max_offset_m < 0.75
