@@ -124,3 +124,28 @@ def test_freeze_with_a_known_map_uses_cone_updates() -> None:
     assert state.map_frozen
     assert len(state.cones) == len(drive.cones_xy_m)
     assert mapper.stats["cones"]["applied"] > 100
+
+
+def test_slam_backend_hands_over_to_the_ukf_at_the_freeze() -> None:
+    """With the slam backend the UKF does not run before the freeze: it is seeded then from the
+    SLAM's pose, velocities and IMU bias estimates, and localises on from there."""
+    mapper, state, _ = _run("slam", 6.0)
+    assert mapper.ukf.stats.get("imu", {}).get("applied", 0) == 0  # idle while SLAM maps
+    slam_pose = mapper.slam.pose()
+    bias = mapper.slam.imu_bias
+    mapper.freeze()
+    assert mapper.map_frozen
+    assert mapper.ukf.x[:3] == pytest.approx([slam_pose.x_m, slam_pose.y_m, slam_pose.yaw_rad])
+    assert mapper.ukf.imu_bias == pytest.approx(bias)
+    assert not mapper.ukf.calibrating
+    drive = make_drive("loop", seed=2, standstill_s=1.0, start_heading_enu_rad=0.7)
+    for now, batch in drive.batches(100.0):
+        if now <= 6.0:
+            continue
+        if now > 8.0:
+            break
+        state = mapper.update(batch, now)
+    assert "error" not in mapper.stats.get("lidar", {})
+    assert mapper.ukf.stats["imu"]["applied"] > 300
+    tx, ty, _ = drive.truth.at(state.pose.timestamp_s)
+    assert math.hypot(state.pose.x_m - tx, state.pose.y_m - ty) < 0.3
