@@ -22,6 +22,7 @@ visualiser) and joined, the CAN receiver is stopped.
 
 from __future__ import annotations
 
+import gc
 import json
 import logging
 import math
@@ -167,12 +168,20 @@ class LiveMain:
         self.worker_stats: dict[str, Any] = {}
         self.worker_loaded = False
         self.realtime = False
+        self.gc_times = StageTimes()
+        self._gc_t0 = 0.0
         self.stop = threading.Event()
         self._link: Link | None = None
         self._process: Any = None
         self._final_health: Health | None = None
 
     # ------------------------------------------------------------------ the executive process
+    def _gc_callback(self, phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            self._gc_t0 = time.perf_counter()
+        else:
+            self.gc_times.add(f"gc{info.get('generation', 0)}", time.perf_counter() - self._gc_t0)
+
     def _start_worker(self) -> None:
         parent_sock, child_sock = link_pair()
         ctx = mp.get_context("spawn")
@@ -262,6 +271,9 @@ class LiveMain:
         try:
             self._start_worker()
             if self._wait_loaded():
+                gc.collect()
+                gc.freeze()  # what is built lives to the end: keep full collections short
+                gc.callbacks.append(self._gc_callback)
                 # The run's clock starts now, with the sensors (a sensor stamping its own time,
                 # as the camera does, counts from when the stack opened the bus).
                 self.clock = RealClock()
@@ -283,6 +295,8 @@ class LiveMain:
             self.sensors.stop()
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            if self._gc_callback in gc.callbacks:
+                gc.callbacks.remove(self._gc_callback)
         return self._summary(stop_reason)
 
     def _loop(self) -> str:
@@ -402,6 +416,9 @@ class LiveMain:
             ],
             "outputs_sha256": self.worker_stats.get("outputs_sha256"),
         }
+        timing["control_gc_ms"] = self.gc_times.summary_ms()
+        if "gc_ms" in self.worker_stats:
+            timing["executive_gc_ms"] = self.worker_stats["gc_ms"]
         if "frames" in self.worker_stats:
             summary["frames"] = self.worker_stats["frames"]
         (self.options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

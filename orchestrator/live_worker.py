@@ -29,6 +29,7 @@ closes the recording and the visualiser, and sends its final statistics.
 from __future__ import annotations
 
 import dataclasses
+import gc
 import logging
 import signal
 import socket
@@ -59,7 +60,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-HEALTH_RATE_HZ = 50.0
+HEALTH_RATE_HZ = 100.0
 """How often the sensors' health goes to the control process (its staleness check ages it)."""
 IDLE_SLEEP_S = 0.002
 """The executive layer's wait when no sensor data came."""
@@ -129,6 +130,7 @@ class Worker:
         self.command: ActuatorCommand | None = None
         self.remote: RemoteStop | None = None
         self.autonomous_started = False
+        self.gc_times: GcTimes | None = None
 
     # ------------------------------------------------------------------ outputs
     def _emit(self, topic: str, message: Any, now_s: float) -> None:
@@ -211,7 +213,9 @@ class Worker:
                 remote = self.remote
                 go = remote is not None and remote.go
                 if not self.autonomous_started and (map_state.loop_closed or go):
+                    t0 = time.perf_counter()
                     self.planner.start_autonomous(map_state)
+                    self.times.add("start_autonomous", time.perf_counter() - t0)
                     self.autonomous_started = True
                 if not self.autonomous_started:
                     continue
@@ -272,6 +276,12 @@ class Worker:
         if self.planner is not None:
             threads.append(threading.Thread(target=self._deliberative, name="planner",
                                             daemon=True))
+        # Everything built so far (modules, the layers) lives until the end: out of the
+        # collector's sight, so its full collections (which hold the GIL) stay short.
+        gc.collect()
+        gc.freeze()
+        self.gc_times = GcTimes()
+        gc.callbacks.append(self.gc_times)
         self.link.send(("loaded",))
         started = False
         try:
@@ -311,12 +321,31 @@ class Worker:
             "outputs_sha256": self.hasher.hexdigest(),
             "errors": self.errors,
         }
+        if self.gc_times is not None:
+            stats["gc_ms"] = self.gc_times.summary_ms()
         if self.recorder is not None:
             stats["recording_dropped"] = int(getattr(self.recorder, "dropped", 0))
         if self.visualiser is not None:
             stats["frames"] = {"submitted": self.visualiser.submitted,
                                "dropped": self.visualiser.dropped}
         self.link.send(("final", stats))
+
+
+class GcTimes:
+    """Pauses of the cyclic garbage collector (they hold the GIL: every thread waits)."""
+
+    def __init__(self) -> None:
+        self.times = StageTimes()
+        self._t0 = 0.0
+
+    def __call__(self, phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            self._t0 = time.perf_counter()
+        else:
+            self.times.add(f"gc{info.get('generation', 0)}", time.perf_counter() - self._t0)
+
+    def summary_ms(self) -> dict[str, dict[str, float]]:
+        return self.times.summary_ms()
 
 
 def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
