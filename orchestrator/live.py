@@ -186,7 +186,9 @@ class LiveMain:
         parent_sock, child_sock = link_pair()
         ctx = mp.get_context("spawn")
         self._process = ctx.Process(
-            target=worker_main, name="fsd-executive", daemon=True,
+            # not a daemon: it starts the visualiser's process; it ends by itself when the
+            # link closes, and _stop_worker always joins it
+            target=worker_main, name="fsd-executive",
             args=(self.config, self.options, self.clock, child_sock,
                   logging.getLogger().getEffectiveLevel()),
         )
