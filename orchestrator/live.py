@@ -84,30 +84,41 @@ class DriveOptions:
     """SCHED_FIFO priority of the reactive layer (control loop and CAN receiver); 0: none."""
 
 
-def set_realtime_priority(priority: int) -> bool:
+def set_realtime_priority(priority: int) -> tuple[int, int] | None:
     """Put the calling thread (and the threads it starts later) under SCHED_FIFO at
-    ``priority``; False, with a warning, when the system does not allow it (it needs root,
-    CAP_SYS_NICE or an ``rtprio`` limit) or ``priority`` is 0.
+    ``priority``; returns the policy and priority it had (for :func:`restore_priority`), or
+    None, with a warning, when the system does not allow it (it needs root, CAP_SYS_NICE or an
+    ``rtprio`` limit) or ``priority`` is 0.
 
     The control loop sleeps most of each period; at real-time priority a busy machine cannot
     delay its wake-up (the kernel still keeps 5 % of the CPU for the rest by default).
     """
     if priority <= 0:
-        return False
-    sched_setscheduler = getattr(os, "sched_setscheduler", None)
-    if sched_setscheduler is None:
+        return None
+    if not hasattr(os, "sched_setscheduler"):
         log.warning("no real-time scheduling on this system: the control period depends on "
                     "the load")
-        return False
+        return None
     try:
-        sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        previous = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except (OSError, ValueError) as exc:
         log.warning("real-time priority %d refused (%s): the control period depends on the "
                     "load (run as root, with CAP_SYS_NICE, or raise the rtprio limit)",
                     priority, exc)
-        return False
+        return None
     log.info("reactive layer at SCHED_FIFO priority %d", priority)
-    return True
+    return previous
+
+
+def restore_priority(previous: tuple[int, int] | None) -> None:
+    """Undo :func:`set_realtime_priority` for the calling thread."""
+    if previous is None:
+        return
+    try:
+        os.sched_setscheduler(0, previous[0], os.sched_param(previous[1]))
+    except (OSError, ValueError) as exc:
+        log.warning("could not restore the scheduling policy: %s", exc)
 
 
 def merge_health(now_s: float, own: Health, remote: Health | None,
@@ -270,6 +281,7 @@ class LiveMain:
             signal.signal(s, on_signal)
         sys.setswitchinterval(0.0005)
         stop_reason = "signal"
+        previous_policy: tuple[int, int] | None = None
         try:
             self._start_worker()
             if self._wait_loaded():
@@ -282,7 +294,8 @@ class LiveMain:
                 self.sensors = SensorManager(control_config(self.config), self.clock)
                 assert self._link is not None
                 self._link.send_nowait(("start", self.clock))
-                self.realtime = set_realtime_priority(self.options.realtime_priority)
+                previous_policy = set_realtime_priority(self.options.realtime_priority)
+                self.realtime = previous_policy is not None
                 self.sensors.start()  # the CAN receiver thread inherits the priority
                 stop_reason = self._loop()
             if self.errors:
@@ -299,6 +312,8 @@ class LiveMain:
                 signal.signal(s, handler)
             if self._gc_callback in gc.callbacks:
                 gc.callbacks.remove(self._gc_callback)
+            gc.unfreeze()
+            restore_priority(previous_policy)
         return self._summary(stop_reason)
 
     def _loop(self) -> str:

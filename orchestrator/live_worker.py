@@ -37,6 +37,7 @@ import threading
 import time
 import traceback
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from common.clock import RealClock
@@ -263,6 +264,13 @@ class Worker:
         else:
             log.warning("unknown message from the control process: %r", kind)
 
+    def _guarded(self, layer: str, body: Callable[[], None]) -> None:
+        """Run a layer's thread body; whatever escapes it stops the run, reported."""
+        try:
+            body()
+        except BaseException as exc:
+            self._fail(layer, exc)
+
     def _start(self, clock: RealClock) -> None:
         """Take the run's clock (it starts with the sensors) and start the receivers."""
         self.clock = clock
@@ -271,11 +279,11 @@ class Worker:
 
     def run(self) -> None:
         """Start the layers, serve the control process until the end, then shut down."""
-        threads = [threading.Thread(target=self._executive, name="mapper", daemon=True),
-                   threading.Thread(target=self._health, name="health", daemon=True)]
+        layers = [("mapper", self._executive), ("health", self._health)]
         if self.planner is not None:
-            threads.append(threading.Thread(target=self._deliberative, name="planner",
-                                            daemon=True))
+            layers.append(("planner", self._deliberative))
+        threads = [threading.Thread(target=self._guarded, args=(name, body), name=name,
+                                    daemon=True) for name, body in layers]
         # Everything built so far (modules, the layers) lives until the end: out of the
         # collector's sight, so its full collections (which hold the GIL) stay short.
         gc.collect()
@@ -306,16 +314,22 @@ class Worker:
             for message in self.link.poll():
                 if message[0] == "tick":
                     self._on_message(message)
+        except Exception as exc:
+            self._fail("executive", exc)
         finally:
             self.stop.set()
             for thread in threads:
                 if thread.is_alive():
                     thread.join(2.0)
-            self.sensors.stop()
-            if self.recorder is not None:
-                self.recorder.close()
-            if self.visualiser is not None:
-                self.visualiser.close()
+            for name, close in (("sensors", self.sensors.stop),
+                                ("recorder", getattr(self.recorder, "close", None)),
+                                ("visualiser", getattr(self.visualiser, "close", None))):
+                if close is None:
+                    continue
+                try:
+                    close()
+                except Exception:
+                    log.exception("closing the %s failed", name)
         stats: dict[str, Any] = {
             "stages_ms": self.times.summary_ms(),
             "outputs_sha256": self.hasher.hexdigest(),

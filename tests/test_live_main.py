@@ -1,0 +1,158 @@
+"""LiveMain (``drive``) end to end in-process: the control loop here, the executive process
+spawned, CAN on a python-can virtual bus the test also listens to. No other sensors: this is
+about the processes' plumbing, shutdown and the safe stop (the emulator tests drive a car)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import can
+import pytest
+
+from common.config import AppConfig
+from common.messages import ActuatorCommand, AsState, CanFrame, WheelSpeeds
+from orchestrator.live import DriveOptions, LiveMain
+from recordings.player import Player
+from sensors.can_codec import CanCodec
+
+
+def live_config() -> AppConfig:
+    config = AppConfig()
+    for name in ("gps", "imu", "lidar", "camera"):
+        getattr(config.sensors, name).enabled = False
+    config.sensors.can.interface = "virtual"
+    config.sensors.can.channel = f"test-live-{uuid.uuid4().hex[:8]}"
+    return config
+
+
+class Car:
+    """The other end of the virtual bus: sends wheel speeds, keeps the commands it gets."""
+
+    def __init__(self, channel: str) -> None:
+        self.bus = can.Bus(interface="virtual", channel=channel)
+        self.codec = CanCodec()
+        self.commands: list[ActuatorCommand] = []
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        t0 = time.monotonic()
+        next_send = t0
+        while not self.stop.is_set():
+            msg = self.bus.recv(0.005)
+            if msg is not None:
+                command = self.codec.decode_command(
+                    CanFrame(0.0, msg.arbitration_id, bytes(msg.data)))
+                if command is not None:
+                    self.commands.append(command)
+            if time.monotonic() >= next_send:
+                next_send += 0.02
+                frame = self.codec.encode_wheel_speeds(
+                    WheelSpeeds(time.monotonic() - t0, 0.0, 0.0, 0.0, 0.0))
+                self.bus.send(can.Message(arbitration_id=frame.arbitration_id,
+                                          data=frame.data, is_extended_id=False))
+
+    def close(self) -> None:
+        self.stop.set()
+        self.thread.join(2.0)
+        # the last frames may still be queued
+        while (msg := self.bus.recv(0.0)) is not None:
+            command = self.codec.decode_command(
+                CanFrame(0.0, msg.arbitration_id, bytes(msg.data)))
+            if command is not None:
+                self.commands.append(command)
+        self.bus.shutdown()
+
+
+def ends_with_full_brake(commands: list[ActuatorCommand]) -> bool:
+    last = commands[-5:]
+    return len(last) == 5 and all(
+        c.brake == 1.0 and c.throttle == 0.0 and c.state == AsState.EMERGENCY for c in last)
+
+
+def kill_worker_when_running(main: LiveMain, sig: int, after_s: float) -> threading.Thread:
+    def kill() -> None:
+        end = time.monotonic() + 60.0
+        while not main.worker_loaded and time.monotonic() < end:
+            time.sleep(0.05)
+        time.sleep(after_s)
+        os.kill(main._process.pid, sig)
+
+    thread = threading.Thread(target=kill, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_time_limit_records_and_stops_with_full_brake(tmp_path: Path) -> None:
+    config = live_config()
+    car = Car(config.sensors.can.channel)
+    main = LiveMain(config, DriveOptions(tmp_path, seconds=2.0, realtime_priority=0))
+    try:
+        summary = main.run()
+    finally:
+        car.close()
+    assert summary["stop_reason"] == "time limit"
+    assert (tmp_path / "summary.json").exists()
+    timing = summary["timing"]
+    assert timing["control_ticks"] >= 150
+    assert isinstance(summary["outputs_sha256"], str)  # the executive process ended cleanly
+    assert {h["source"] for h in summary["health"]} == {"can", "res"}
+    # the wheel speeds reached the Mapper, its pose came back to the controller
+    assert main.pose is not None
+    assert len(car.commands) >= 150
+    assert car.commands[0].state == AsState.READY  # before the first pose: held, braking
+    assert ends_with_full_brake(car.commands)
+    # the recording: the commands and the CAN frames crossed to the executive process
+    counts: dict[str, int] = {}
+    for _t, topic, _m in Player(tmp_path / "recording.mcap"):
+        counts[topic] = counts.get(topic, 0) + 1
+    assert counts.get("/command", 0) >= 150
+    assert counts.get("/can/frame", 0) >= 50
+    assert counts.get("/health", 0) >= 15
+
+
+def test_executive_process_killed_stops_the_car(tmp_path: Path) -> None:
+    config = live_config()
+    car = Car(config.sensors.can.channel)
+    main = LiveMain(config, DriveOptions(tmp_path, seconds=30.0, realtime_priority=0))
+    kill_worker_when_running(main, signal.SIGKILL, 1.0)
+    start = time.monotonic()
+    try:
+        summary = main.run()
+    finally:
+        car.close()
+    assert time.monotonic() - start < 25.0
+    assert "executive process died" in summary["stop_reason"], summary["stop_reason"]
+    assert summary["outputs_sha256"] is None
+    assert ends_with_full_brake(car.commands)
+
+
+def test_a_failing_layer_stops_the_run_with_its_error(tmp_path: Path) -> None:
+    config = live_config()
+    config.run.plan_rate_hz = 0.0  # the planner layer's first line divides by it
+    car = Car(config.sensors.can.channel)
+    try:
+        summary = LiveMain(config, DriveOptions(tmp_path, seconds=30.0,
+                                                realtime_priority=0)).run()
+    finally:
+        car.close()
+    assert summary["stop_reason"].startswith("planner: ZeroDivisionError"), summary
+    assert isinstance(summary["outputs_sha256"], str)  # it still closed its recording
+    assert ends_with_full_brake(car.commands)
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="no sched_setscheduler")
+def test_realtime_priority_is_best_effort_and_restored(tmp_path: Path) -> None:
+    config = live_config()
+    before = os.sched_getscheduler(0)
+    summary = LiveMain(config, DriveOptions(tmp_path, seconds=0.5, record=False,
+                                            realtime_priority=5)).run()
+    assert summary["stop_reason"] == "time limit"
+    assert summary["timing"]["realtime_priority"] in (5, None)  # None: not permitted here
+    assert os.sched_getscheduler(0) == before
