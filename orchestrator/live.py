@@ -15,6 +15,12 @@ A source's health comes with the time it was measured; here its age is advanced 
 stalled or dead executive process makes its sources stale (the safety supervisor stops the car).
 An error in either process, or the executive process dying, ends the run with a safe stop.
 
+Timing: the control thread and the CAN receiver run at SCHED_FIFO priority when the system
+allows it (``drive --rt-priority N``, default 10, 0 for none), so a busy machine cannot delay a
+tick's wake-up; both processes freeze their start-up heap (``gc.freeze``) so that the garbage
+collector's full passes, which hold the GIL, stay short. The summary reports the period's
+percentiles, how late each tick woke (``control_wake_late_p99_ms``) and the GC pauses.
+
 Ctrl-C and SIGTERM end the run cleanly: the car is commanded to stop (full brake frames), the
 executive process is told to stop (it joins its threads and closes the recording and the
 visualiser) and joined, the CAN receiver is stopped.
