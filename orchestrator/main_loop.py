@@ -1,11 +1,12 @@
 """Main: owns the managers and moves all data between them, one control tick at a time.
 
-The same ``Main.tick`` runs in simulation, in replay and on the car. In simulation and replay a
-:class:`~common.clock.SimClock` is stepped tick by tick and the raw sensor units produced up to
-the tick are handed in (``raw_in``); the layers then run in a fixed order, so the outputs depend
-only on the raw input and are identical at any replay rate. On the car
-(:mod:`orchestrator.live`) the receivers' threads fill the Sensor Manager instead, and the
-mapping and planning layers run in their own threads so that they never delay a control tick.
+``Main.tick`` runs the layers for simulation and replay: a :class:`~common.clock.SimClock` is
+stepped tick by tick and the raw sensor units produced up to the tick are handed in
+(``raw_in``); the layers then run in a fixed order, so the outputs depend only on the raw input
+and are identical at any replay rate. On the car (:mod:`orchestrator.live`) the same managers
+are driven by the wall clock instead: the reactive layer (control, safety, CAN) runs in its own
+process at real-time priority, and the sensor receivers, mapping and planning run in a second
+process, so that they never delay a control tick.
 
 Data flow per tick (ARCHITECTURE.md, "One loop")::
 
