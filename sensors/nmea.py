@@ -427,17 +427,23 @@ class NmeaParser:
         sats = max(sats, 0)
         hdop = _float(msg.data[7])
         alt = _float(msg.data[8]) if len(msg.data) > 8 else math.nan
-        epoch = self._epoch_for(timestamp_s, "GGA", utc, out)
+        self._position_fix(timestamp_s, "GGA", utc, valid, lat, lon, (quality, sats, hdop, alt),
+                           raw, out)
+
+    def _position_fix(self, timestamp_s: float, kind: str, utc: float, valid: bool,
+                      lat: float, lon: float, quality_sats_hdop_alt: tuple[int, int, float, float],
+                      raw: bytes, out: list[GpsFix]) -> None:
+        """The shared end of GGA and GNS: position, quality, satellites, HDOP and height into
+        the epoch (a position sentence without a fix is counted as ``no_fix``)."""
+        epoch = self._epoch_for(timestamp_s, kind, utc, out)
         self._set_status(epoch, valid, lat, lon)
         if valid:
             if not epoch.emitted:
-                epoch.fix_quality = quality
-                epoch.satellites = sats
-                epoch.hdop = hdop
-                epoch.altitude_m = alt
+                (epoch.fix_quality, epoch.satellites, epoch.hdop,
+                 epoch.altitude_m) = quality_sats_hdop_alt
         else:
             self._reject("no_fix", raw)
-        self._done(epoch, "GGA", out)
+        self._done(epoch, kind, out)
 
     def _on_rmc(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
                 out: list[GpsFix]) -> None:
@@ -499,17 +505,8 @@ class NmeaParser:
         sats = _int(data[6], 0) if len(data) > 6 else 0
         hdop = _float(data[7]) if len(data) > 7 else math.nan
         alt = _float(data[8]) if len(data) > 8 else math.nan
-        epoch = self._epoch_for(timestamp_s, "GNS", utc, out)
-        self._set_status(epoch, valid, lat, lon)
-        if valid:
-            if not epoch.emitted:
-                epoch.fix_quality = quality
-                epoch.satellites = sats
-                epoch.hdop = hdop
-                epoch.altitude_m = alt
-        else:
-            self._reject("no_fix", raw)
-        self._done(epoch, "GNS", out)
+        self._position_fix(timestamp_s, "GNS", utc, valid, lat, lon, (quality, sats, hdop, alt),
+                           raw, out)
 
     def _on_vtg(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
                 out: list[GpsFix]) -> None:
