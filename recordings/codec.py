@@ -11,6 +11,7 @@ and :func:`from_proto` returns a :class:`TrackRecord` holding the same fields.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -135,6 +136,26 @@ def _enum(enum_type: type[Any], value: int) -> Any:
 # ---------------------------------------------------------------------------------------------
 
 
+def _flat_to(proto_type: type) -> Callable[[Any], ProtoMessage]:
+    """A converter to ``proto_type`` for a flat message dataclass (all fields scalars, named as
+    in fsd.proto: GpsFix, ImuSample, WheelSpeeds, SteeringAngle, RemoteStop, GroundTruth)."""
+
+    def convert(m: Any) -> ProtoMessage:
+        return proto_type(**{f.name: getattr(m, f.name) for f in dataclasses.fields(m)})
+
+    return convert
+
+
+def _flat_back(message_type: type) -> Callable[[Any], Any]:
+    """A converter from the proto back to the flat message dataclass ``message_type``."""
+    names = [f.name for f in dataclasses.fields(message_type)]
+
+    def convert(p: Any) -> Any:
+        return message_type(**{name: getattr(p, name) for name in names})
+
+    return convert
+
+
 def _raw_bytes(m: RawBytes) -> pb.RawBytes:
     return pb.RawBytes(timestamp_s=m.timestamp_s, source=m.source, payload=bytes(m.payload))
 
@@ -148,49 +169,14 @@ def _can_frame(m: CanFrame) -> pb.CanFrame:
     )
 
 
-def _gps_fix(m: GpsFix) -> pb.GpsFix:
-    return pb.GpsFix(
-        timestamp_s=m.timestamp_s,
-        lat_deg=m.lat_deg,
-        lon_deg=m.lon_deg,
-        altitude_m=m.altitude_m,
-        fix_quality=m.fix_quality,
-        satellites=m.satellites,
-        hdop=m.hdop,
-        speed_mps=m.speed_mps,
-        course_rad=m.course_rad,
-        utc_time_s=m.utc_time_s,
-    )
 
 
-def _imu(m: ImuSample) -> pb.ImuSample:
-    return pb.ImuSample(
-        timestamp_s=m.timestamp_s,
-        accel_x_mps2=m.accel_x_mps2,
-        accel_y_mps2=m.accel_y_mps2,
-        accel_z_mps2=m.accel_z_mps2,
-        gyro_x_radps=m.gyro_x_radps,
-        gyro_y_radps=m.gyro_y_radps,
-        gyro_z_radps=m.gyro_z_radps,
-    )
 
 
-def _wheels(m: WheelSpeeds) -> pb.WheelSpeeds:
-    return pb.WheelSpeeds(
-        timestamp_s=m.timestamp_s,
-        front_left_mps=m.front_left_mps,
-        front_right_mps=m.front_right_mps,
-        rear_left_mps=m.rear_left_mps,
-        rear_right_mps=m.rear_right_mps,
-    )
 
 
-def _steering(m: SteeringAngle) -> pb.SteeringAngle:
-    return pb.SteeringAngle(timestamp_s=m.timestamp_s, angle_rad=m.angle_rad)
 
 
-def _remote(m: RemoteStop) -> pb.RemoteStop:
-    return pb.RemoteStop(timestamp_s=m.timestamp_s, emergency=m.emergency, go=m.go)
 
 
 def _cone(m: ConeDetection) -> pb.ConeDetection:
@@ -336,17 +322,6 @@ def _health(m: Health) -> pb.Health:
     )
 
 
-def _truth(m: GroundTruth) -> pb.GroundTruth:
-    return pb.GroundTruth(
-        timestamp_s=m.timestamp_s,
-        x_m=m.x_m,
-        y_m=m.y_m,
-        yaw_rad=m.yaw_rad,
-        vx_mps=m.vx_mps,
-        vy_mps=m.vy_mps,
-        yaw_rate_radps=m.yaw_rate_radps,
-        steering_rad=m.steering_rad,
-    )
 
 
 def _track(m: TrackLike) -> pb.Track:
@@ -369,11 +344,11 @@ def _track(m: TrackLike) -> pb.Track:
 _TO_PROTO: dict[type, Callable[[Any], ProtoMessage]] = {
     RawBytes: _raw_bytes,
     CanFrame: _can_frame,
-    GpsFix: _gps_fix,
-    ImuSample: _imu,
-    WheelSpeeds: _wheels,
-    SteeringAngle: _steering,
-    RemoteStop: _remote,
+    GpsFix: _flat_to(pb.GpsFix),
+    ImuSample: _flat_to(pb.ImuSample),
+    WheelSpeeds: _flat_to(pb.WheelSpeeds),
+    SteeringAngle: _flat_to(pb.SteeringAngle),
+    RemoteStop: _flat_to(pb.RemoteStop),
     ConeDetection: _cone,
     LidarCones: _lidar_cones,
     CameraCones: _camera_cones,
@@ -387,7 +362,7 @@ _TO_PROTO: dict[type, Callable[[Any], ProtoMessage]] = {
     ActuatorCommand: _command,
     SourceHealth: _source_health,
     Health: _health,
-    GroundTruth: _truth,
+    GroundTruth: _flat_to(pb.GroundTruth),
     TrackRecord: _track,
 }
 
@@ -425,45 +400,14 @@ def _can_frame_back(p: pb.CanFrame) -> CanFrame:
     return CanFrame(p.timestamp_s, p.arbitration_id, bytes(p.data), p.is_extended_id)
 
 
-def _gps_fix_back(p: pb.GpsFix) -> GpsFix:
-    return GpsFix(
-        timestamp_s=p.timestamp_s,
-        lat_deg=p.lat_deg,
-        lon_deg=p.lon_deg,
-        altitude_m=p.altitude_m,
-        fix_quality=p.fix_quality,
-        satellites=p.satellites,
-        hdop=p.hdop,
-        speed_mps=p.speed_mps,
-        course_rad=p.course_rad,
-        utc_time_s=p.utc_time_s,
-    )
 
 
-def _imu_back(p: pb.ImuSample) -> ImuSample:
-    return ImuSample(
-        p.timestamp_s,
-        p.accel_x_mps2,
-        p.accel_y_mps2,
-        p.accel_z_mps2,
-        p.gyro_x_radps,
-        p.gyro_y_radps,
-        p.gyro_z_radps,
-    )
 
 
-def _wheels_back(p: pb.WheelSpeeds) -> WheelSpeeds:
-    return WheelSpeeds(
-        p.timestamp_s, p.front_left_mps, p.front_right_mps, p.rear_left_mps, p.rear_right_mps
-    )
 
 
-def _steering_back(p: pb.SteeringAngle) -> SteeringAngle:
-    return SteeringAngle(p.timestamp_s, p.angle_rad)
 
 
-def _remote_back(p: pb.RemoteStop) -> RemoteStop:
-    return RemoteStop(p.timestamp_s, p.emergency, p.go)
 
 
 def _cone_back(p: pb.ConeDetection) -> ConeDetection:
@@ -613,17 +557,6 @@ def _health_back(p: pb.Health) -> Health:
     )
 
 
-def _truth_back(p: pb.GroundTruth) -> GroundTruth:
-    return GroundTruth(
-        timestamp_s=p.timestamp_s,
-        x_m=p.x_m,
-        y_m=p.y_m,
-        yaw_rad=p.yaw_rad,
-        vx_mps=p.vx_mps,
-        vy_mps=p.vy_mps,
-        yaw_rate_radps=p.yaw_rate_radps,
-        steering_rad=p.steering_rad,
-    )
 
 
 def _track_back(p: pb.Track) -> TrackRecord:
@@ -648,11 +581,11 @@ def _track_back(p: pb.Track) -> TrackRecord:
 _FROM_PROTO: dict[type, Callable[[Any], object]] = {
     pb.RawBytes: _raw_bytes_back,
     pb.CanFrame: _can_frame_back,
-    pb.GpsFix: _gps_fix_back,
-    pb.ImuSample: _imu_back,
-    pb.WheelSpeeds: _wheels_back,
-    pb.SteeringAngle: _steering_back,
-    pb.RemoteStop: _remote_back,
+    pb.GpsFix: _flat_back(GpsFix),
+    pb.ImuSample: _flat_back(ImuSample),
+    pb.WheelSpeeds: _flat_back(WheelSpeeds),
+    pb.SteeringAngle: _flat_back(SteeringAngle),
+    pb.RemoteStop: _flat_back(RemoteStop),
     pb.ConeDetection: _cone_back,
     pb.LidarCones: _lidar_cones_back,
     pb.CameraCones: _camera_cones_back,
@@ -666,7 +599,7 @@ _FROM_PROTO: dict[type, Callable[[Any], object]] = {
     pb.ActuatorCommand: _command_back,
     pb.SourceHealth: _source_health_back,
     pb.Health: _health_back,
-    pb.GroundTruth: _truth_back,
+    pb.GroundTruth: _flat_back(GroundTruth),
     pb.Track: _track_back,
 }
 
