@@ -17,26 +17,33 @@ import logging
 import math
 import time
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from common.clock import SimClock
 from common.config import AppConfig, apply_overrides
 from common.conventions import wrap_angles
 from common.errors import ConfigError, RecordingError
-from common.messages import CanFrame, GroundTruth, RawBytes
+from common.messages import CanFrame, Health, RawBytes
 from controller.controller import Controller
 from mapper.evaluation import evaluate_map
 from mapper.mapper import Mapper
 from orchestrator.main_loop import Main
 from orchestrator.outputs import HashSink
+from orchestrator.replay_front import (
+    FrontEndTimes,
+    TickInput,
+    tick_inputs,
+    tick_inputs_in_process,
+)
 from planner.path_planner import PathPlanner
 from recordings.player import Player
-from recordings.topics import COMMAND, RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK
-from sensors.manager import SensorManager
+from recordings.reader import RecordingReader
+from recordings.topics import COMMAND
+from sensors.manager import SensorBatch
 
 log = logging.getLogger(__name__)
 
@@ -52,14 +59,39 @@ class ReplayOptions:
     config_file: Path | None = None
     """The replay's own ``--config`` file, applied on top of the recording's configuration."""
     use_recorded_config: bool = True
+    pipeline: bool = True
+    """Read and parse the recording in a process of its own, beside Main (same outputs)."""
+
+
+class TickSensors:
+    """The Sensor Manager as Main sees it in a replay: each tick's readings and health come
+    ready from the front end (:mod:`orchestrator.replay_front`)."""
+
+    def __init__(self) -> None:
+        self._tick: TickInput | None = None
+
+    def hand(self, tick: TickInput) -> None:
+        """The front end's output for the next tick."""
+        self._tick = tick
+
+    def ingest(self, raw: Sequence[RawBytes | CanFrame]) -> None:
+        raise RecordingError("a replay's raw units are parsed by its front end, not by Main")
+
+    def take(self) -> SensorBatch:
+        assert self._tick is not None, "hand() a tick before Main.tick"
+        return SensorBatch([], self._tick.readings, {})
+
+    def health(self, now_s: float) -> Health:
+        assert self._tick is not None and abs(self._tick.t_s - now_s) < 1e-9, \
+            "health asked for another tick than the one handed"
+        return self._tick.health
 
 
 def last_command_time_s(path: Path) -> float:
     """Log time (s) of the last actuator command in a recording: where its run stopped."""
-    last = math.nan
-    for log_time_s, _topic, _message in Player(path, rate=None, topics=[COMMAND]):
-        last = log_time_s
-    return last
+    with RecordingReader(path) as reader:
+        last_ns = reader.last_log_time_ns(COMMAND)
+    return math.nan if last_ns is None else last_ns * 1e-9
 
 
 def recorded_config(path: Path) -> dict[str, Any] | None:
@@ -105,9 +137,12 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     dt_s = 1.0 / config.run.control_rate_hz
     n_ticks = int(round(end_s / dt_s))
 
-    clock = SimClock()
-    sensors = SensorManager(config, clock)
     hasher = HashSink()
+    sensors = TickSensors()
+    front_times = FrontEndTimes()
+    # The front end starts first: a forked process must not inherit the visualiser's.
+    make_ticks = tick_inputs_in_process if options.pipeline else tick_inputs
+    ticks = make_ticks(config, path, options.rate, n_ticks, front_times)
     visualiser = None
     if options.render and options.out_dir is not None:
         from visualiser.visualiser import Visualiser
@@ -121,29 +156,23 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     est_pose: dict[float, tuple[float, float, float]] = {}
     track = None
     wall0 = time.perf_counter()
-    stream = iter(Player(path, rate=options.rate,
-                         topics=[*RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK]))
-    pending: tuple[float, str, Any] | None = next(stream, None)
-    for k in range(1, n_ticks + 1):
-        t_s = k * dt_s
-        raw: list[RawBytes | CanFrame] = []
-        while pending is not None and pending[0] <= t_s + 1e-9:
-            log_time_s, topic, message = pending
-            if isinstance(message, (RawBytes, CanFrame)):
-                raw.append(message)
-            elif isinstance(message, GroundTruth):
+    try:
+        for tick in ticks:
+            for log_time_s, message in tick.truth:
                 truth_t.append(log_time_s)
                 truth_pose.append((message.x_m, message.y_m, message.yaw_rad))
                 main.truth = message
-            elif topic == TRUTH_TRACK:
-                track = message
-                main.track = message
-            pending = next(stream, None)
-        clock.set(t_s)
-        main.tick(t_s, raw)
-        if main.map_state is not None and truth_t and abs(truth_t[-1] - t_s) < 1e-6:
-            pose = main.map_state.pose
-            est_pose[truth_t[-1]] = (pose.x_m, pose.y_m, pose.yaw_rad)
+            if tick.track is not None:
+                track = main.track = tick.track
+            sensors.hand(tick)
+            main.tick(tick.t_s)
+            if main.map_state is not None and truth_t and abs(truth_t[-1] - tick.t_s) < 1e-6:
+                pose = main.map_state.pose
+                est_pose[truth_t[-1]] = (pose.x_m, pose.y_m, pose.yaw_rad)
+    finally:
+        close = getattr(ticks, "close", None)
+        if close is not None:
+            close()
     wall_s = time.perf_counter() - wall0
     if visualiser is not None:
         visualiser.close()
@@ -158,6 +187,9 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
             "wall_time_s": round(wall_s, 3),
             "realtime_factor": round(n_ticks * dt_s / max(wall_s, 1e-9), 3),
             "stages_ms": main.times.summary_ms(),
+            "front_end": {"pipelined": options.pipeline,
+                          "read_s": round(front_times.read_s, 4),
+                          "sensors_s": round(front_times.sensors_s, 4)},
         },
     }
     if truth_pose and est_pose:

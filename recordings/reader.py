@@ -219,6 +219,22 @@ class RecordingReader:
             if i >= len(units):
                 return
 
+    def last_log_time_ns(self, topic: str) -> int | None:
+        """Log time (ns) of the last message on ``topic``; None when it has none.
+
+        Loads chunks from the latest-ending back only until no earlier one can hold a later
+        message (usually one chunk), instead of reading the whole file.
+        """
+        best: int | None = None
+        for unit in sorted(self._units, key=lambda u: (u.end_ns, u.sequence), reverse=True):
+            if best is not None and unit.end_ns <= best:
+                break
+            entries = self._load(unit, {topic})
+            if entries:
+                last = entries[-1][0]
+                best = last if best is None else max(best, last)
+        return best
+
     def iter_messages(self, topics: Iterable[str] | None = None) -> Iterator[RecordedMessage]:
         """Every readable message in log-time order (ties in file order), optionally only on
         ``topics`` (see :meth:`iter_entries`)."""

@@ -215,16 +215,15 @@ class SensorManager:
         for source, intake in self.intakes.items():
             receiver = self.receivers.get(source)
             if receiver is not None:
-                st = receiver.stats(now_s)
-                alive = st.running and st.connected
+                alive = receiver.is_alive() and receiver.connected.is_set()
             else:
-                st = intake.stats(now_s)
-                alive = st.raw_count > 0
+                alive = intake.raw_count > 0
+            rate, age, errors, rejects = intake.health_figures(now_s)
             timeout_s = getattr(sc, source).timeout_s
-            out.append(SourceHealth(now_s, source, alive, st.rate_hz, st.age_s, st.errors,
-                                    st.age_s > timeout_s, tuple(st.rejects.items())))
+            out.append(SourceHealth(now_s, source, alive, rate, age, errors, age > timeout_s,
+                                    rejects))
             if source == "can":
-                count, rate, age = st.kinds.get("res", (0, 0.0, float("inf")))
+                rate, age, _, _ = intake.health_figures(now_s, "res")
                 out.append(SourceHealth(now_s, "res", alive, rate, age, 0,
                                         age > sc.can.res_timeout_s, ()))
         return Health(now_s, tuple(out))

@@ -329,6 +329,25 @@ class Intake:
                              self.all_rejects(), connected, running, reconnects, kinds)
 
 
+    def health_figures(self, now_s: float, kind: str | None = None
+                       ) -> tuple[float, float, int, tuple[tuple[str, int], ...]]:
+        """``(rate_hz, age_s, errors, rejects)`` at ``now_s`` as :meth:`stats` has them (of the
+        readings of ``kind`` alone when given: no errors nor rejects then), without building
+        a :class:`ReceiverStats`: health asks for it on every control tick."""
+        window = self.rate_window_s
+        with self._lock:
+            if kind is not None:
+                k = self._kinds.get(kind)
+                if k is None:
+                    return 0.0, float("inf"), 0, ()
+                return _rate(k.times, now_s, window), now_s - k.last_s, 0, ()
+            rate = _rate(self._times, now_s, window)
+            age = now_s - self._last_s if self.count else float("inf")
+            errors = self.errors
+        rejects = self.all_rejects()
+        return rate, age, errors, tuple(rejects.items()) if rejects else ()
+
+
 class Receiver(abc.ABC):
     """A transport read by one named daemon thread, its units handed to an :class:`Intake`.
 

@@ -90,3 +90,49 @@ def test_replay_reproduces_sim_outputs(sim_run: tuple[Path, dict[str, Any]],
         # Paced on the recording's clock: 26 s at 4x takes at least 6.5 s of wall time.
         assert replay["timing"]["wall_time_s"] >= SIM_TIME_S / 4 - 0.1
     assert "pose_rmse_m" in replay  # the recording has ground truth
+
+
+def test_front_end_process_changes_nothing(sim_run: tuple[Path, dict[str, Any]]) -> None:
+    """The replay's front end (reading + Sensor Manager) run in its own process hands Main the
+    same ticks as run in Main's process: equal readings and health, tick by tick."""
+    from common.config import AppConfig
+    from orchestrator.replay import last_command_time_s, replay_config
+    from orchestrator.replay_front import tick_inputs, tick_inputs_in_process
+
+    recording, _summary = sim_run
+    config = replay_config(AppConfig(), recording, None)
+    n_ticks = round(last_command_time_s(recording) * config.run.control_rate_hz)
+    n_ticks = min(n_ticks, 800)  # 8 s: GPS, IMU, CAN, LiDAR sweeps and camera frames
+    here = list(tick_inputs(config, recording, None, n_ticks))
+    beside = list(tick_inputs_in_process(config, recording, None, n_ticks))
+    assert len(here) == len(beside) == n_ticks
+    readings = 0
+    for a, b in zip(here, beside, strict=True):
+        assert a.t_s == b.t_s
+        assert a.health == b.health
+        assert len(a.readings) == len(b.readings)
+        for ra, rb in zip(a.readings, b.readings, strict=True):
+            assert type(ra) is type(rb) and ra.timestamp_s == rb.timestamp_s
+        readings += len(a.readings)
+        assert [t for t, _ in a.truth] == [t for t, _ in b.truth]
+    assert readings > n_ticks  # IMU alone is 200 Hz
+
+
+def test_front_end_failure_is_a_clear_error(sim_run: tuple[Path, dict[str, Any]],
+                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """A failure inside the front-end process ends the replay with a RecordingError naming
+    it, not with a hang or a silent short replay."""
+    from common.config import AppConfig
+    from common.errors import RecordingError
+    from orchestrator.replay import ReplayOptions, run_replay
+    from sensors.manager import SensorManager
+
+    recording, _summary = sim_run
+
+    def broken_health(self: SensorManager, now_s: float) -> None:
+        if now_s > 2.0:
+            raise RuntimeError("health exploded")
+
+    monkeypatch.setattr(SensorManager, "health", broken_health)
+    with pytest.raises(RecordingError, match="front end failed: RuntimeError: health exploded"):
+        run_replay(AppConfig(), ReplayOptions(recording))
