@@ -11,15 +11,21 @@ same either way, so the replay's outputs are too.
 
 from __future__ import annotations
 
+import copyreg
+import dataclasses
+import functools
+import io
 import logging
 import multiprocessing
 import multiprocessing.connection
+import pickle
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from common import messages
 from common.clock import SimClock
 from common.config import AppConfig
 from common.errors import RecordingError
@@ -122,7 +128,7 @@ def tick_inputs_in_process(config: AppConfig, path: Path, rate: float | None, n_
     try:
         while True:
             try:
-                kind, payload = receive.recv()
+                kind, payload = pickle.loads(receive.recv_bytes())
             except EOFError:
                 raise RecordingError(
                     f"{path}: the replay's front-end process ended without a word "
@@ -151,22 +157,48 @@ def _front_end_main(send: multiprocessing.connection.Connection, config: AppConf
     (or ``error`` with a one-line reason)."""
     times = FrontEndTimes()
     batch: list[TickInput] = []
+    dumps = _message_pickler()
     try:
         for tick in tick_inputs(config, path, rate, n_ticks, times):
             batch.append(tick)
             if len(batch) >= TICKS_PER_BATCH:
-                send.send(("ticks", batch))
+                send.send_bytes(dumps(("ticks", batch)))
                 batch = []
         if batch:
-            send.send(("ticks", batch))
-        send.send(("done", times))
+            send.send_bytes(dumps(("ticks", batch)))
+        send.send_bytes(dumps(("done", times)))
     except (BrokenPipeError, KeyboardInterrupt):
         pass  # Main stopped reading: nothing to report to
     except Exception as exc:  # noqa: BLE001 (reported to Main, which raises it)
         log.exception("replay front end failed")
         try:
-            send.send(("error", f"{type(exc).__name__}: {exc}"))
+            send.send_bytes(dumps(("error", f"{type(exc).__name__}: {exc}")))
         except OSError:
             pass
     finally:
         send.close()
+
+
+def _message_pickler() -> Callable[[object], bytes]:
+    """``pickle.dumps`` that stores the message dataclasses as their class and field values
+    (rebuilt by calling the class), which unpickles about twice as fast as the default state
+    dictionaries of slotted dataclasses. Only ever read back by our own Main process."""
+    table = copyreg.dispatch_table.copy()
+    for cls in [*vars(messages).values(), TickInput, FrontEndTimes]:
+        if isinstance(cls, type) and dataclasses.is_dataclass(cls):
+            names = tuple(f.name for f in dataclasses.fields(cls) if f.init)
+            table[cls] = functools.partial(_reduce_dataclass, cls, names)
+
+    def dumps(obj: object) -> bytes:
+        buffer = io.BytesIO()
+        pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+        pickler.dispatch_table = table
+        pickler.dump(obj)
+        return buffer.getvalue()
+
+    return dumps
+
+
+def _reduce_dataclass(cls: type, names: tuple[str, ...], obj: object
+                      ) -> tuple[type, tuple[Any, ...]]:
+    return cls, tuple([getattr(obj, name) for name in names])

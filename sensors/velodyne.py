@@ -281,8 +281,9 @@ class SweepAssembler:
         self.max_gap_s = max_gap_s
         self._payloads: list[bytes] = []
         self._stamps: list[float] = []
-        self._carry: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None
-        self._carry = None
+        self._head_from: int | None = None
+        """Relative azimuth where the first kept packet was cut (its earlier returns were the
+        previous sweep's); None when it was not."""
         self._last_rel: int | None = None
         self._last_stamp: float | None = None
         self.sweeps = 0
@@ -316,42 +317,54 @@ class SweepAssembler:
     def flush(self) -> list[LidarPoints]:
         """Emit whatever has been collected as a (partial) sweep."""
         out = self._complete(split_from=None)
-        out.extend(self._complete(split_from=None))  # a carried-over remainder, if any
         self._last_rel = None
         self._last_stamp = None
         return out
 
     def _complete(self, split_from: int | None) -> list[LidarPoints]:
         """Close the sweep; with ``split_from`` (the last packet's first relative azimuth),
-        that packet's returns past the cut are carried over to the next sweep."""
+        that packet's returns past the cut belong to the next sweep: the packet is kept and
+        opens the next sweep, which drops its returns before the cut (``_head_from``)."""
         payloads, stamps = self._payloads, self._stamps
+        head_from, self._head_from = self._head_from, None
         self._payloads, self._stamps = [], []
-        if not payloads and self._carry is None:
+        if not payloads:
             return []
         dec = decode_packets(payloads, checked=True)
         t0 = self.clock.to_clock(np.asarray(stamps, dtype=np.float64))
-        times = t0[dec.packet_index] + dec.time_offset_s if payloads else dec.time_offset_s
+        times = t0[dec.packet_index] + dec.time_offset_s
         points, rings = dec.points, dec.rings
-        carry_next = None
-        if split_from is not None and payloads:
-            # only the last packet's returns can lie past the cut
-            tail = int(np.searchsorted(dec.packet_index, len(payloads) - 1))
-            rel = (np.round(dec.azimuth_deg[tail:] * 100.0).astype(np.int64)
-                   - self.cut_hundredths) % 36000
-            nxt = rel < split_from
-            if nxt.any():
-                keep = np.ones(points.shape[0], dtype=bool)
-                keep[tail:] = ~nxt
-                carry_next = (points[tail:][nxt], times[tail:][nxt], rings[tail:][nxt])
-                points, times, rings = points[keep], times[keep], rings[keep]
-        if self._carry is not None:
-            cp, ct, cr = self._carry
-            points = np.concatenate([cp, points])
-            times = np.concatenate([ct, times])
-            rings = np.concatenate([cr, rings])
-        self._carry = carry_next
+        keep: slice | NDArray[np.bool_] = slice(0, points.shape[0])
+        if head_from is not None or split_from is not None:
+            mask = np.ones(points.shape[0], dtype=bool)
+            if head_from is not None:
+                # the first packet was split by the previous cut: keep its returns past it
+                head = int(np.searchsorted(dec.packet_index, 1))
+                mask[:head] = self._rel_of(dec.azimuth_deg[:head]) < head_from
+            if split_from is not None:
+                # only the last packet's returns can lie past this cut
+                tail = int(np.searchsorted(dec.packet_index, len(payloads) - 1))
+                mask[tail:] &= self._rel_of(dec.azimuth_deg[tail:]) >= split_from
+                self._payloads, self._stamps = [payloads[-1]], [stamps[-1]]
+                self._head_from = split_from
+            keep = _as_slice(mask)
+        points, times, rings = points[keep], times[keep], rings[keep]
         if points.shape[0] == 0:
             return []
         self.sweeps += 1
         end_s = float(times.max())
         return [LidarPoints(timestamp_s=end_s, points=points, times_s=times, rings=rings)]
+
+    def _rel_of(self, azimuth_deg: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Azimuths (deg) as hundredths of a degree past the cut."""
+        return (np.round(azimuth_deg * 100.0).astype(np.int64) - self.cut_hundredths) % 36000
+
+
+def _as_slice(mask: NDArray[np.bool_]) -> slice | NDArray[np.bool_]:
+    """``mask`` as a slice when its True entries are one run (a view instead of a copy: the
+    returns of a packet come in azimuth order, so a cut leaves a prefix or a suffix)."""
+    idx = np.flatnonzero(mask)
+    if idx.size == 0:
+        return slice(0, 0)
+    lo, hi = int(idx[0]), int(idx[-1]) + 1
+    return slice(lo, hi) if hi - lo == idx.size else mask
