@@ -83,6 +83,7 @@ from common.messages import (
 )
 from mapper.config import MapperConfig
 from mapper.fusion import rear_slip_velocity
+from mapper.slam_blas import mirror_lower, syrk_lower_inplace
 
 log = logging.getLogger(__name__)
 
@@ -95,7 +96,8 @@ _N_COLOURS = len(ConeColour)
 _N_SIZES = len(ConeSize)
 _BIG = 1.0e9
 _SYMMETRISE_EVERY = 50
-"""Updates between explicit symmetrisations (the update itself keeps P exactly symmetric)."""
+"""Updates between explicit symmetrisations when the update runs in numpy (the BLAS path keeps
+the lower triangle as the only truth, so the triangles cannot drift apart)."""
 
 
 def motion_model(
@@ -201,6 +203,9 @@ class EkfSlam:
         self._n = self._pd
         self._pbuf[:self._pd, :self._pd] = np.diag(self._initial_vehicle_variances())
         self._reset_lazy()
+        self._lower_only = False
+        """The strict upper triangle of the landmark block ``P[V:, V:]`` is stale: the lower
+        triangle is the covariance there (see :meth:`_update`); :meth:`_mirror` restores it."""
         self._scratch = np.empty(0)
         self._q_input = np.array([c.gyro_noise_density_radps_rthz, c.accel_noise_density_mps2_rthz,
                                   c.accel_noise_density_mps2_rthz]) ** 2
@@ -208,6 +213,8 @@ class EkfSlam:
         self._q_walk = np.array([c.gyro_bias_walk_radps_rths, c.accel_bias_walk_mps2_rths,
                                  c.accel_bias_walk_mps2_rths]) ** 2
         self._bias_diag = (POSE_DIM + BIAS_DIM + 1) * np.arange(POSE_DIM, POSE_DIM + BIAS_DIM)
+        self._vehicle_upper = np.triu(np.ones((POSE_DIM + BIAS_DIM,) * 2, bool), 1)
+        """Strict upper triangle of the largest vehicle block (8, 8)."""
         """Flat indices of the bias states' diagonal in the (8, 8) vehicle block."""
         # Per-landmark bookkeeping, one row per landmark.
         self._ids = np.zeros(0, np.int64)
@@ -245,8 +252,10 @@ class EkfSlam:
 
     @property
     def P(self) -> FloatArray:  # noqa: N802 (the conventional name)
-        """The covariance (5 + 2 N, 5 + 2 N), a view (cross blocks brought up to date)."""
+        """The covariance (V + 2 N, V + 2 N), exactly symmetric, a view (cross blocks brought up
+        to date) valid until the next update."""
         self._flush()
+        self._mirror()
         return self._pbuf[: self._n, : self._n]
 
     @property
@@ -305,6 +314,7 @@ class EkfSlam:
         self._pbuf[:n, :n] = p
         self._n = n
         self._reset_lazy()
+        self._lower_only = False
         m = self.n_landmarks
         self._ids = np.arange(m, dtype=np.int64)
         self._next_id = m
@@ -362,6 +372,8 @@ class EkfSlam:
             if self._b_pending:
                 bc = self._lazy_b @ cross0
                 p[v:n, v:n] -= cross0.T @ bc
+                # Not exactly symmetric in floating point: the lower triangle is the truth.
+                self._lower_only = True
             cross = self._f_acc @ cross0 if self._f_pending else cross0.copy()
             p[:v, v:n] = cross
             p[v:n, :v] = cross.T
@@ -489,11 +501,19 @@ class EkfSlam:
         ``h`` (k, len(cols)) is that part of H, ``innovation`` (k,) = z - h(x), ``r`` (k, k).
         ``P <- P - K (H P)`` with Cholesky solves; returns False (counted) if S is not positive
         definite.
+
+        With ``S = L L^T``, ``K (H P) = V V^T`` where ``V = (H P)^T L^-T`` (n, k): one BLAS
+        ``dsyrk`` subtracts it from the LOWER triangle of P in place (half the multiply-adds of
+        the full product, no (n, n) temporary; :func:`mapper.slam_blas.syrk_lower_inplace`).
+        The vehicle rows are then mirrored at once (V of them); the upper triangle of the
+        landmark block stays stale (``_lower_only``) until someone needs the whole matrix
+        (:meth:`_mirror`: the ``P`` property, the loop closure). Readers of landmark rows take
+        them from the lower triangle (the rows below: :meth:`_rows`).
         """
         self._flush()
         n = self._n
         p = self._pbuf[:n, :n]
-        hp = h @ p[cols, :]                                   # (k, n) = H P
+        hp = h @ self._rows(cols)                              # (k, n) = H P
         s = hp[:, cols] @ h.T + r
         try:
             factor = cho_factor(s, lower=True, check_finite=False)
@@ -501,21 +521,50 @@ class EkfSlam:
             self.stats["update_not_positive_definite"] += 1
             log.warning("EKF SLAM update skipped: S not positive definite")
             return False
-        # V^T = (H P)^T L^-T: one BLAS triangular solve with the Cholesky factor, (n, k).
-        vt = dtrsm(1.0, factor[0], hp.T, side=1, lower=1, trans_a=1)
         self._xbuf[:n] += hp.T @ cho_solve(factor, innovation, check_finite=False)
-        # P - K (H P), exactly symmetric; the (n, n) product goes into a buffer kept between
-        # updates (a fresh one is page-faulted in on every update: 3 ms instead of 0.5 at n 600).
-        if self._scratch.size < n * n:
-            self._scratch = np.empty(max(n * n, 2 * self._scratch.size))
-        vvt = self._scratch[:n * n].reshape(n, n)
-        np.matmul(vt, vt.T, out=vvt)
-        p -= vvt
-        self._updates += 1
-        if self._updates % _SYMMETRISE_EVERY == 0:
-            self._symmetrise()
+        # V = (H P)^T L^-T: one BLAS triangular solve with the Cholesky factor, (n, k), in
+        # place of H P (no longer needed).
+        vt = dtrsm(1.0, factor[0], hp.T, side=1, lower=1, trans_a=1, overwrite_b=1)
+        if syrk_lower_inplace(p, vt):
+            v = min(self._pd, n)
+            pvv = p[:v, :v]
+            np.copyto(pvv, pvv.T.copy(), where=self._vehicle_upper[:v, :v])
+            p[:v, v:] = p[v:, :v].T
+            self._lower_only = n > v
+        else:
+            # No BLAS reachable: the full product (numpy calls syrk and mirrors it, exactly
+            # symmetric) into a buffer kept between updates (a fresh one is page-faulted in on
+            # every update: 3 ms instead of 0.5 at n 600).
+            if self._scratch.size < n * n:
+                self._scratch = np.empty(max(n * n, 2 * self._scratch.size))
+            vvt = self._scratch[:n * n].reshape(n, n)
+            np.matmul(vt, vt.T, out=vvt)
+            p -= vvt
+            self._updates += 1
+            if self._updates % _SYMMETRISE_EVERY == 0:
+                self._symmetrise()
         self._xbuf[2] = wrap_angle(float(self._xbuf[2]))
         return True
+
+    def _rows(self, cols: NDArray[np.int64]) -> FloatArray:
+        """Rows ``cols`` of the (symmetric) covariance (k, n), a new array: with a stale upper
+        triangle (``_lower_only``) the part right of the diagonal comes from the column."""
+        n = self._n
+        p = self._pbuf[:n, :n]
+        rows = p[cols, :]
+        if self._lower_only:
+            c_min = int(cols.min()) if cols.size else n
+            part = rows[:, c_min:]
+            np.copyto(part, p[c_min:, cols].T,
+                      where=np.arange(c_min, n)[None, :] > cols[:, None])
+        return rows
+
+    def _mirror(self) -> None:
+        """Make P exactly symmetric again from its lower triangle if the upper one is stale."""
+        if self._lower_only:
+            v = self._pd
+            mirror_lower(self._pbuf[v: self._n, v: self._n])
+            self._lower_only = False
 
     def _update_vehicle(self, cols: NDArray[np.int64], h: FloatArray, innovation: FloatArray,
                         r: FloatArray) -> bool:
@@ -555,7 +604,11 @@ class EkfSlam:
         return True
 
     def _symmetrise(self) -> None:
-        """P = (P + P^T) / 2 (the rank-k update is symmetric already; this guards round-off)."""
+        """Make P exactly symmetric: from the lower triangle if the upper one is stale, else
+        ``P = (P + P^T) / 2`` (the rank-k update is symmetric already; this guards round-off)."""
+        if self._lower_only:
+            self._mirror()
+            return
         p = self._pbuf[: self._n, : self._n]
         p[...] = 0.5 * (p + p.T)
 
@@ -660,8 +713,7 @@ class EkfSlam:
         ppl = np.stack([p[:3, c0].T, p[:3, c0 + 1].T], axis=2)
         pll = np.empty((idx.size, 2, 2))
         pll[:, 0, 0] = p[c0, c0]
-        pll[:, 0, 1] = p[c0, c0 + 1]
-        pll[:, 1, 0] = p[c0 + 1, c0]
+        pll[:, 0, 1] = pll[:, 1, 0] = p[c0 + 1, c0]          # the lower triangle: see _update
         pll[:, 1, 1] = p[c0 + 1, c0 + 1]
         return ppl, pll
 
@@ -1083,8 +1135,7 @@ class EkfSlam:
         cov = np.empty((m, 2, 2))
         p = self._pbuf
         cov[:, 0, 0] = p[c0, c0]
-        cov[:, 0, 1] = p[c0, c0 + 1]
-        cov[:, 1, 0] = p[c0 + 1, c0]
+        cov[:, 0, 1] = cov[:, 1, 0] = p[c0 + 1, c0]          # the lower triangle: see _update
         cov[:, 1, 1] = p[c0 + 1, c0 + 1]
         return ConeMap(
             xy_m=self.landmarks_xy_m, covariance=cov, colour=self._colours(),
