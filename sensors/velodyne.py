@@ -93,7 +93,9 @@ _SINGLE_SPAN_S = np.float32(_RETURN_TIME_S[BLOCKS_PER_PACKET - 1, 0] - _RETURN_T
 _DUAL_SPAN_S = np.float32(_RETURN_TIME_S[(BLOCKS_PER_PACKET - 1) // 2, 0] - _RETURN_TIME_S[0, 0])
 _RETURN = np.dtype({"names": ["d", "r"], "formats": ["<u2", "u1"], "offsets": [0, 2],
                     "itemsize": 3})
-_BLOCK_AZIMUTHS = struct.Struct("<" + "2xH96x" * BLOCKS_PER_PACKET)
+_BLOCK_AZIMUTHS_AND_TIME = struct.Struct("<" + "2xH96x" * BLOCKS_PER_PACKET + "I")
+_FLAGS_FF = b"\xff" * BLOCKS_PER_PACKET
+_FLAGS_EE = b"\xee" * BLOCKS_PER_PACKET
 _COS_AZ = np.cos(np.radians(np.arange(36000) * 0.01))
 _SIN_AZ = np.sin(np.radians(np.arange(36000) * 0.01))
 _COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
@@ -117,16 +119,20 @@ class DecodedPackets:
     packet_index: NDArray[np.int64]
 
 
-def check_packet(payload: bytes) -> None:
-    """Raise :class:`DecodeError` unless ``payload`` is a well-formed VLP-16 data packet."""
+def check_packet(payload: bytes) -> tuple[int, ...]:
+    """Raise :class:`DecodeError` unless ``payload`` is a well-formed VLP-16 data packet;
+    return its 12 block azimuths (hundredths of a degree) and its timestamp (us past the
+    hour), 13 ints."""
     if len(payload) != PACKET_SIZE:
         raise DecodeError(f"bad_length: VLP-16 data packet of {len(payload)} bytes, "
                           f"expected {PACKET_SIZE}")
-    if payload[0:1200:100] != b"\xff" * 12 or payload[1:1200:100] != b"\xee" * 12:
+    if payload[0:1200:100] != _FLAGS_FF or payload[1:1200:100] != _FLAGS_EE:
         raise DecodeError("bad_flag: a data block does not start with 0xFFEE")
-    top = max(_BLOCK_AZIMUTHS.unpack_from(payload))
+    fields = _BLOCK_AZIMUTHS_AND_TIME.unpack_from(payload)
+    top = max(fields[:BLOCKS_PER_PACKET])
     if top >= 36000:
         raise DecodeError(f"bad_azimuth: block azimuth {top} >= 36000")
+    return fields
 
 
 def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedPackets:
@@ -289,24 +295,22 @@ class SweepAssembler:
         self.sweeps = 0
         self.clock = DeviceClock()
 
-    def _rel(self, azimuth: int) -> int:
-        return (azimuth - self.cut_hundredths) % 36000
-
     def add(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
         """Add one data packet; return the sweeps it completes."""
-        check_packet(payload)
+        fields = check_packet(payload)
         done: list[LidarPoints] = []
         if (self._last_stamp is not None
                 and (timestamp_s - self._last_stamp > self.max_gap_s
                      or timestamp_s < self._last_stamp)):
             done.extend(self.flush())
-        first = self._rel(int.from_bytes(payload[2:4], "little"))
-        last = self._rel(int.from_bytes(payload[1102:1104], "little"))
+        cut = self.cut_hundredths
+        first = (fields[0] - cut) % 36000
+        last = (fields[BLOCKS_PER_PACKET - 1] - cut) % 36000
         if self._last_rel is not None and first < self._last_rel:
             # the cut lies between the previous packet and this one
             done.extend(self._complete(split_from=None))
         self._payloads.append(payload)
-        self._stamps.append(self.clock.update(timestamp_s, packet_timestamp_us(payload)))
+        self._stamps.append(self.clock.update(timestamp_s, fields[BLOCKS_PER_PACKET]))
         self._last_rel = last
         self._last_stamp = timestamp_s
         if last < first:
