@@ -130,8 +130,14 @@ class Mapper:
         """Freeze the map: the current one, or ``known_map`` (a surveyed map); from now on the
         UKF localises against it."""
         cone_map = known_map if known_map is not None else self._live_map()
+        own_slam_map = self.slam is not None and known_map is None
         if self.slam is not None and not self.map_frozen:
-            self._hand_over_to_ukf()
+            self._hand_over_to_ukf(own_map=own_slam_map)
+            if own_slam_map and self.ukf.consider_map is not None:
+                cone_map = self.ukf.consider_map
+        if not own_slam_map and cone_map is not self._frozen_map:
+            # A surveyed map or the smoother's: independent cones, each with its covariance.
+            self.ukf.set_map(cone_map)
         self._frozen_map = cone_map
         votes = np.zeros((len(cone_map), N_COLOURS))
         known = cone_map.colour > int(ConeColour.UNKNOWN)
@@ -158,20 +164,44 @@ class Mapper:
             out["slam"] = dict(self.slam.stats)
         return out
 
-    def _hand_over_to_ukf(self) -> None:
+    def _hand_over_to_ukf(self, own_map: bool = True) -> None:
         """Seed the UKF from the SLAM (pose, velocities, IMU biases, their covariances): with
-        the ``slam`` backend the UKF does not run before the map freezes."""
+        the ``slam`` backend the UKF does not run before the map freezes.
+
+        With ``own_map`` (the SLAM's map is frozen) the UKF takes the SLAM's joint covariance:
+        its vehicle block mapped to the UKF's states, the landmark block as the map's error
+        covariance and the vehicle-landmark block as their cross-covariance (the map's errors
+        are consider states of the UKF: :meth:`UkfLocaliser.set_map`); else the map is set by
+        the caller."""
         slam = self.slam
-        self.ukf.reset(slam.pose())
-        self.ukf.x[3:6] = self._slam_velocity()
-        self.ukf.t_s = slam.t_s
-        if slam.vehicle_dim > 5:
+        ukf = self.ukf
+        ukf.set_map(None)
+        ukf.reset(slam.pose())
+        ukf.x[3:6] = self._slam_velocity()
+        ukf.t_s = slam.t_s
+        v = slam.vehicle_dim
+        if v > 5:
             # The SLAM estimated the IMU biases on the way (the car may never have stood
             # still for the UKF's static calibration): the UKF goes on with them.
-            v = slam.vehicle_dim
-            self.ukf.set_imu_bias(slam.imu_bias, np.array(slam.P[5:v, 5:v]))
+            ukf.set_imu_bias(slam.imu_bias, np.array(slam.P[5:v, 5:v]))
         else:
-            self.ukf.calibrating = False
+            ukf.calibrating = False
+        if not own_map:
+            return
+        P = np.array(slam.P)
+        T = slam_to_ukf_jacobian(ukf.x, v, ukf.n)
+        pv = T @ P[:v, :v] @ T.T
+        # The UKF's yaw-rate state is the last gyro sample less the bias: the gyro's noise.
+        pv[5, 5] += self.config.mapper.ukf.gyro_sigma_radps ** 2
+        if v == 5 or ukf.n == 6:
+            # Bias states in one filter only: they keep what set_imu_bias / reset gave them.
+            keep = slice(6, ukf.n)
+            pv[keep, :] = 0.0
+            pv[:, keep] = 0.0
+            pv[keep, keep] = ukf.P[keep, keep]
+        ukf.reset(ukf.pose(), covariance=0.5 * (pv + pv.T))
+        ukf.t_s = slam.t_s
+        ukf.set_map(slam.cone_map(), P[v:, v:], T @ P[:v, v:])
 
     # -- per reading --------------------------------------------------------------------------
 
@@ -376,3 +406,20 @@ class Mapper:
                             float(pred[4]), float(pred[5]), np.asarray(cov, np.float64).copy())
         return MapState(t, pose, self._cones(), loop_closed=self.loop_closed,
                         backend=self.backend, map_frozen=self.map_frozen)
+
+
+def slam_to_ukf_jacobian(ukf_x: np.ndarray, slam_dim: int, ukf_dim: int) -> np.ndarray:
+    """(ukf_dim, slam_dim) Jacobian of the UKF's state (x, y, yaw, vx, vy, yaw rate[, gyro,
+    accel x, accel y bias]) with respect to the SLAM's (x, y, yaw, world vx, world vy[, the same
+    biases]) at the UKF's state ``ukf_x``: body velocities are the world ones rotated by -yaw;
+    the yaw rate is the gyro less its bias."""
+    T = np.zeros((ukf_dim, slam_dim))
+    T[0, 0] = T[1, 1] = T[2, 2] = 1.0
+    yaw, vx, vy = float(ukf_x[2]), float(ukf_x[3]), float(ukf_x[4])
+    c, s = math.cos(yaw), math.sin(yaw)
+    T[3, 3], T[3, 4], T[3, 2] = c, s, vy
+    T[4, 3], T[4, 4], T[4, 2] = -s, c, -vx
+    if slam_dim > 5 and ukf_dim > 6:
+        T[5, 5] = -1.0
+        T[6, 5] = T[7, 6] = T[8, 7] = 1.0
+    return T

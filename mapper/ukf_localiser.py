@@ -94,6 +94,11 @@ class UkfLocaliser:
         self._calib_ref: FloatArray | None = None
         self._tree: cKDTree | None = None
         self._tree_map: ConeMap | None = None
+        self._map: ConeMap | None = None
+        self.map_cov: FloatArray | None = None
+        """The consider map's error covariance (2 M, 2 M), x0 y0 x1 y1 ... (see :meth:`set_map`)."""
+        self.PxL: FloatArray | None = None
+        """Cross-covariance (n, 2 M) of the state's error with the consider map's errors."""
         self.reset(initial_pose)
 
     # -- state --------------------------------------------------------------------------------
@@ -138,6 +143,8 @@ class UkfLocaliser:
                 p[:m, m:] = 0.0
                 p[m:, :m] = 0.0
         self.P = 0.5 * (p + p.T)
+        if self.PxL is not None:
+            self.PxL[:] = 0.0  # a fresh pose: its error is independent of the map's
 
     @property
     def imu_bias(self) -> tuple[float, float, float]:
@@ -165,9 +172,58 @@ class UkfLocaliser:
                 self.P[N_STATE:, :N_STATE] = 0.0
                 self.P[:N_STATE, N_STATE:] = 0.0
                 self.P[N_STATE:, N_STATE:] = 0.5 * (covariance + covariance.T)
+                if self.PxL is not None:
+                    self.PxL[N_STATE:] = 0.0
         else:
             self.gyro_bias_radps = float(bias[0])
             self.accel_bias_mps2 = np.array([bias[1], bias[2]], np.float64)
+
+    def set_map(self, cone_map: ConeMap | None, covariance: FloatArray | None = None,
+                cross_covariance: FloatArray | None = None) -> None:
+        """Localise on ``cone_map`` with its errors as *consider* states (Schmidt-Kalman).
+
+        A map's errors are fixed: every sweep sees the same error of the same cones again, so
+        adding a cone's covariance to each update's noise (as if fresh) averages them away and
+        the pose covariance falls below the pose's true error. Here the map errors
+        ``e_L = m_true - m_hat`` are states that are never updated: their covariance
+        ``covariance`` (2 M, 2 M), rows x0 y0 x1 y1 ... (default: block diagonal from
+        ``cone_map.covariance``, a surveyed map of independent cones), and their
+        cross-covariance with this filter's state errors ``cross_covariance`` (n', 2 M), n' <= n
+        (default zero; the SLAM hands over its pose-landmark block), are carried along. Cone
+        updates on ``cone_map`` then account for the map's error and its correlation over
+        cones and time. ``None`` drops the consider map.
+        """
+        if cone_map is None:
+            self._map = self.map_cov = self.PxL = None
+            return
+        m2 = 2 * len(cone_map)
+        if covariance is None:
+            cov = np.zeros((m2, m2))
+            for i in range(len(cone_map)):
+                cov[2 * i:2 * i + 2, 2 * i:2 * i + 2] = cone_map.covariance[i]
+        else:
+            cov = np.array(covariance, np.float64)
+            if cov.shape != (m2, m2):
+                raise ValueError(f"set_map: covariance {cov.shape} for {len(cone_map)} cones")
+        pxl = np.zeros((self.n, m2))
+        if cross_covariance is not None:
+            c = np.asarray(cross_covariance, np.float64)
+            if c.ndim != 2 or c.shape[1] != m2 or c.shape[0] > self.n:
+                raise ValueError(f"set_map: cross-covariance {c.shape} for {self.n} states, "
+                                 f"{len(cone_map)} cones")
+            pxl[:c.shape[0]] = c
+        self._map = cone_map
+        self.map_cov = 0.5 * (cov + cov.T)
+        self.PxL = pxl
+        log.info("UKF localises on %d map cones (consider states): position sigma rms %.4f m, "
+                 "pose-map cross-covariance %s", len(cone_map),
+                 math.sqrt(float(np.mean(np.diag(cov)))) if m2 else 0.0,
+                 "given" if cross_covariance is not None else "zero")
+
+    @property
+    def consider_map(self) -> ConeMap | None:
+        """The map whose errors are consider states (:meth:`set_map`), or None."""
+        return self._map
 
     def count(self, sensor: str, outcome: str) -> None:
         """Count one measurement's outcome (applied, rejected, skipped_...)."""
@@ -249,6 +305,8 @@ class UkfLocaliser:
             self.P[N_STATE:, :] = 0.0
             self.P[:, N_STATE:] = 0.0
             self.P[N_STATE:, N_STATE:] = np.diag(var)
+            if self.PxL is not None:
+                self.PxL[N_STATE:] = 0.0
         log.info("IMU static calibration from %d samples: gyro bias %.5f rad/s, "
                  "accel bias (%.4f, %.4f) m/s^2", n, self.gyro_bias_radps, *self.accel_bias_mps2)
 
@@ -342,6 +400,16 @@ class UkfLocaliser:
             q += [cfg.gyro_bias_walk_radps_rths**2 * dt_s,
                   cfg.accel_bias_walk_mps2_rths**2 * dt_s,
                   cfg.accel_bias_walk_mps2_rths**2 * dt_s]
+        if self.PxL is not None:
+            # The map errors do not move: their cross-covariance goes through the prediction's
+            # statistical linearisation F = P_{x'x} P^-1 (the process noise is independent).
+            dx = chi - self.x
+            dx[:, IYAW] = _wrap(dx[:, IYAW])
+            dy = out - mean
+            dy[:, IYAW] = _wrap(dy[:, IYAW])
+            p_yx = (dy.T * self.wc) @ dx
+            F = scipy.linalg.solve(self.P, p_yx.T, assume_a="pos", check_finite=False).T
+            self.PxL = F @ self.PxL
         mean[IYAW] = wrap_angle(float(mean[IYAW]))
         self.x = mean
         cov[np.diag_indices(self.n)] += q
@@ -385,6 +453,8 @@ class UkfLocaliser:
         else:
             self.x = self.x + K @ y
             P = P - K @ (H @ P)
+        if self.PxL is not None:
+            self.PxL = self.PxL - K @ (H @ self.PxL)
         self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
         self.P = 0.5 * (P + P.T)
         self.count(sensor, "applied")
@@ -417,6 +487,10 @@ class UkfLocaliser:
             self.count(sensor, "rejected")
             return False
         K = scipy.linalg.cho_solve(cho, Pxz.T, check_finite=False).T
+        if self.PxL is not None:
+            # h statistically linearised: H = Pxz^T P^-1.
+            H = scipy.linalg.solve(self.P, Pxz, assume_a="pos", check_finite=False).T
+            self.PxL = self.PxL - K @ (H @ self.PxL)
         self.x = self.x + K @ y
         self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
         P = self.P - K @ S @ K.T
@@ -545,6 +619,11 @@ class UkfLocaliser:
         # J = dR/dyaw d = (-rd_y, rd_x): H = [I, J] on (x, y, yaw).
         J = np.stack([-rd[:, 1], rd[:, 0]], axis=1)
         sigma = cfg.cone_sigma_m if cone_sigma_m is None else cone_sigma_m
+        mask: tuple[int, ...] | None = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
+        if full_update:
+            mask = None
+        if self.PxL is not None and cone_map is self._map:
+            return self._update_cones_consider(y_all, J, idx[paired], sigma, mask)
         R_each = sigma**2 * np.eye(2) + cone_map.covariance[idx[paired]]
         P3 = self.P[:3, :3]
         accepted = []
@@ -569,13 +648,80 @@ class UkfLocaliser:
             H[2 * j + 1, IYAW] = J[i, 1]
             R[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R_each[i]
         y = y_all[accepted].reshape(-1)
-        mask: tuple[int, ...] | None = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
-        if full_update:
-            mask = None
         ok = self._update_linear("cones_batch", y, H, R, gate=math.inf, mask=mask)
         if ok:
             self.stats.setdefault("cones", Counter())["applied"] += k
         return k if ok else 0
+
+    def _update_cones_consider(self, y_all: FloatArray, J: FloatArray,
+                               landmarks: NDArray[np.intp], sigma_m: float,
+                               mask: tuple[int, ...] | None) -> int:
+        """The cone update with the map's errors as consider states (see :meth:`set_map`).
+
+        ``y_all`` (p, 2) innovations z - p_hat, ``J`` (p, 2) their yaw derivatives, ``landmarks``
+        (p,) the paired map cones. ``y = H_x e_x - e_L[cone] + v``: its covariance
+        ``S = H P H^T - H P_xL_c - P_Lx_c H^T + P_LL_cc + sigma^2 I``; each detection is gated on
+        its own 2 x 2 block, the accepted go in one update with the (masked) gain
+        ``K = M S^-1``, ``M = cov(e_x, y) = P H^T - P_xL_c``, the covariance in the form exact
+        for any gain ``P - K M^T - M K^T + K S K^T``, and ``P_xL -= K cov(y, e_L)``.
+        """
+        cfg = self.config
+        assert self.PxL is not None and self.map_cov is not None
+        p = y_all.shape[0]
+        Hx = np.zeros((2 * p, self.n))
+        Hx[0::2, IX] = 1.0
+        Hx[1::2, IY] = 1.0
+        Hx[0::2, IYAW] = J[:, 0]
+        Hx[1::2, IYAW] = J[:, 1]
+        cols = np.empty(2 * p, np.intp)
+        cols[0::2] = 2 * landmarks
+        cols[1::2] = 2 * landmarks + 1
+        pxl_c = self.PxL[:, cols]
+        M = self.P @ Hx.T - pxl_c
+        B = Hx @ pxl_c
+        S = Hx @ M - B.T + self.map_cov[np.ix_(cols, cols)]
+        S[np.diag_indices(2 * p)] += sigma_m**2
+        S = 0.5 * (S + S.T)
+        gate2 = cfg.cone_gate_sigma**2
+        accepted = []
+        for i in range(p):
+            yi = y_all[i]
+            Si = S[2 * i:2 * i + 2, 2 * i:2 * i + 2]
+            det = Si[0, 0] * Si[1, 1] - Si[0, 1] * Si[1, 0]
+            d2 = (Si[1, 1] * yi[0] * yi[0] - 2.0 * Si[0, 1] * yi[0] * yi[1]
+                  + Si[0, 0] * yi[1] * yi[1]) / det if det > 0.0 else math.inf
+            if d2 <= gate2:
+                accepted.append(i)
+            else:
+                self.count("cones", "rejected")
+        if not accepted:
+            return 0
+        rows = np.empty(2 * len(accepted), np.intp)
+        rows[0::2] = 2 * np.asarray(accepted)
+        rows[1::2] = rows[0::2] + 1
+        Sa = S[np.ix_(rows, rows)]
+        Ma = M[:, rows]
+        try:
+            cho = scipy.linalg.cho_factor(Sa, lower=True, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            self.count("cones_batch", "rejected_singular")
+            return 0
+        K = scipy.linalg.cho_solve(cho, Ma.T, check_finite=False).T
+        if mask is not None:
+            drop = np.ones(self.n, bool)
+            drop[list(mask)] = False
+            K[drop] = 0.0
+        self.x = self.x + K @ y_all[accepted].reshape(-1)
+        self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
+        KM = K @ Ma.T
+        P = self.P - KM - KM.T + K @ Sa @ K.T
+        self.P = 0.5 * (P + P.T)
+        c_yl = Hx[rows] @ self.PxL - self.map_cov[cols[rows]]
+        self.PxL = self.PxL - K @ c_yl
+        self.count("cones_batch", "applied")
+        k = len(accepted)
+        self.stats.setdefault("cones", Counter())["applied"] += k
+        return k
 
 
 def _wrap(a: FloatArray) -> FloatArray:
