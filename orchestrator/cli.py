@@ -51,6 +51,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     replay.add_argument("--out", type=Path, help="folder for summary.json (and frames)")
     replay.add_argument("--render", action="store_true", help="render frames into OUT/frames")
     replay.add_argument("--json", action="store_true", help="print the summary as JSON")
+    replay.add_argument("--single-process", action="store_true",
+                        help="read and parse the recording in Main's own process (by default "
+                             "a second process does it beside Main; same outputs either way)")
     replay.set_defaults(func=_replay)
 
     drive = subparsers.add_parser(
@@ -116,7 +119,8 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     recording = resolve_recording(args.recording)
     summary = run_replay(config, ReplayOptions(recording, rate=args.rate,
                                                out_dir=args.out, render=args.render,
-                                               config_file=config_file))
+                                               config_file=config_file,
+                                               pipeline=not args.single_process))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
