@@ -65,7 +65,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import cho_factor, cho_solve
-from scipy.linalg.blas import dtrsm
+from scipy.linalg.blas import dtrsm, dtrsv
+from scipy.linalg.lapack import dpotrf
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
@@ -213,6 +214,8 @@ class EkfSlam:
         self._q_walk = np.array([c.gyro_bias_walk_radps_rths, c.accel_bias_walk_mps2_rths,
                                  c.accel_bias_walk_mps2_rths]) ** 2
         self._bias_diag = (POSE_DIM + BIAS_DIM + 1) * np.arange(POSE_DIM, POSE_DIM + BIAS_DIM)
+        self._cone_index: dict[int, tuple[NDArray[np.int64], ...]] = {}
+        """Index arrays of the batched cone update by number of detections (_cone_structure)."""
         self._vehicle_upper = np.triu(np.ones((POSE_DIM + BIAS_DIM,) * 2, bool), 1)
         """Strict upper triangle of the largest vehicle block (8, 8)."""
         """Flat indices of the bias states' diagonal in the (8, 8) vehicle block."""
@@ -515,16 +518,17 @@ class EkfSlam:
         p = self._pbuf[:n, :n]
         hp = h @ self._rows(cols)                              # (k, n) = H P
         s = hp[:, cols] @ h.T + r
-        try:
-            factor = cho_factor(s, lower=True, check_finite=False)
-        except np.linalg.LinAlgError:
+        # S = L L^T (LAPACK directly: scipy's cho_factor/cho_solve cost more in argument
+        # checking than the 40 x 40 factorisation).
+        chol, info = dpotrf(s, lower=1, clean=0, overwrite_a=1)
+        if info != 0:
             self.stats["update_not_positive_definite"] += 1
             log.warning("EKF SLAM update skipped: S not positive definite")
             return False
-        self._xbuf[:n] += hp.T @ cho_solve(factor, innovation, check_finite=False)
         # V = (H P)^T L^-T: one BLAS triangular solve with the Cholesky factor, (n, k), in
-        # place of H P (no longer needed).
-        vt = dtrsm(1.0, factor[0], hp.T, side=1, lower=1, trans_a=1, overwrite_b=1)
+        # place of H P (no longer needed); K y = (H P)^T S^-1 y = V (L^-1 y).
+        vt = dtrsm(1.0, chol, hp.T, side=1, lower=1, trans_a=1, overwrite_b=1)
+        self._xbuf[:n] += vt @ dtrsv(chol, innovation, lower=1)
         if syrk_lower_inplace(p, vt):
             v = min(self._pd, n)
             pvv = p[:v, :v]
@@ -809,23 +813,59 @@ class EkfSlam:
         return int(assigned_det.size)
 
     def _apply_cone_update(self, z: FloatArray, r: FloatArray, lm: NDArray[np.int64]) -> bool:
-        """One batched update for detections ``z`` (a, 2) of landmarks ``lm`` (a,)."""
+        """One batched update for detections ``z`` (a, 2) of landmarks ``lm`` (a,).
+
+        The model is :func:`observation_model`'s, written out with as few array operations as
+        possible (a sweep's update is dominated by per-call overhead apart from the rank-k
+        product): ``H`` (2a, 3 + 2a) on the columns ``x, y, yaw`` and the landmarks' is
+        ``[-R^T | R^T (-dy, dx)... | blockdiag(R^T)]`` (see :meth:`_cone_structure`).
+        """
         a = lm.size
-        lm_xy = self._xbuf[self._pd: self._n].reshape(-1, 2)[lm]
-        zhat, hp, hl = observation_model(self._xbuf[:3], lm_xy)
-        cols = np.concatenate([np.arange(3), (self._pd + 2 * lm[:, None] + np.arange(2)).ravel()])
+        pd = self._pd
+        xb = self._xbuf
+        yaw = float(xb[2])
+        c, s = math.cos(yaw), math.sin(yaw)
+        hl = np.array([[c, s], [-s, c]])                       # R^T, d z / d l
+        cols, pose_idx, yaw_idx, rr_idx = self._cone_structure(a)
+        lm_cols = cols[3::2]
+        np.add(2 * lm, pd, out=lm_cols)
+        np.add(lm_cols, 1, out=cols[4::2])
+        zhat = (xb[cols[3:]].reshape(a, 2) - xb[:2]) @ hl.T      # (a, 2) = R^T (l - p)
         h = np.zeros((2 * a, 3 + 2 * a))
-        h[:, :3] = hp.reshape(2 * a, 3)
-        rows_i = np.arange(2 * a)
-        blk = rows_i // 2
-        h[rows_i, 3 + 2 * blk] = hl[rows_i % 2, 0]
-        h[rows_i, 4 + 2 * blk] = hl[rows_i % 2, 1]
+        h.put(pose_idx, np.concatenate([-hl.ravel(), hl.ravel()]))  # d/d(x, y) and d/dl
+        h.put(yaw_idx, zhat[:, ::-1] * (1.0, -1.0))            # d/d yaw = (zy, -zx)
         rr = np.zeros((2 * a, 2 * a))
-        bi = 2 * np.arange(a)
-        for i in range(2):
-            for j in range(2):
-                rr[bi + i, bi + j] = r[:, i, j]
+        rr.put(rr_idx, r)                                      # blockdiag(r)
         return self._update(cols, h, (z - zhat).ravel(), rr)
+
+    def _cone_structure(self, a: int) -> tuple[NDArray[np.int64], NDArray[np.int64],
+                                               NDArray[np.int64], NDArray[np.int64]]:
+        """Index arrays of a batched cone update with ``a`` detections, cached by ``a``.
+
+        Returns the state columns (3 + 2a,) (a fresh array: the pose columns set, the
+        landmarks' to fill), the flat indices in H (2a, 3 + 2a) of the x, y and landmark
+        entries (8 per detection: row 2i: x, y, then row 2i + 1: x, y, then the same for the
+        2 x 2 landmark block, in the order ``put`` repeats its 8 values), those of the yaw
+        column (2a,) and of the 2 x 2 blocks of blockdiag(R) (2a, 2a) (4 per detection).
+        """
+        cached = self._cone_index.get(a)
+        if cached is None:
+            m = 3 + 2 * a
+            i = np.arange(a)[:, None]
+            row0, row1 = 2 * i * m, (2 * i + 1) * m
+            lm0 = 3 + 2 * i
+            pose_idx = np.concatenate([row0, row0 + 1, row1, row1 + 1, row0 + lm0,
+                                       row0 + lm0 + 1, row1 + lm0, row1 + lm0 + 1], axis=1)
+            yaw_idx = np.concatenate([row0 + 2, row1 + 2], axis=1)
+            q = 2 * a
+            rr_idx = np.concatenate([2 * i * q + 2 * i, 2 * i * q + 2 * i + 1,
+                                     (2 * i + 1) * q + 2 * i, (2 * i + 1) * q + 2 * i + 1],
+                                    axis=1)
+            cols0 = np.zeros(m, np.int64)
+            cols0[:3] = (0, 1, 2)
+            cached = (cols0, pose_idx.ravel(), yaw_idx.ravel(), rr_idx.ravel())
+            self._cone_index[a] = cached
+        return cached[0].copy(), cached[1], cached[2], cached[3]
 
     def _preliminary(self, z: FloatArray, r: FloatArray, sizes: NDArray[np.int64],
                      colours: NDArray[np.int64]) -> None:
