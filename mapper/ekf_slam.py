@@ -32,8 +32,12 @@ Models
   velocity and yaw rate (adding ``motion_compensation_sigma_mps * dt`` of noise), so a whole sweep
   is ONE batched update (seed 5.3 discusses the equivalence).
 - Update: ``P <- P - K (H P)`` without an explicit inverse: with ``S = L L^T`` (Cholesky,
-  ``scipy.linalg.cho_factor``), ``K (H P) = (L^-1 H P)^T (L^-1 H P)`` and ``K y = (H P)^T S^-1 y``
-  (``cho_solve``); ``H`` is used only on the columns it touches. ``P`` is kept symmetric.
+  LAPACK ``dpotrf``), ``K (H P) = V V^T`` with ``V = (H P)^T L^-T`` (BLAS ``dtrsm``) and
+  ``K y = V (L^-1 y)``; ``H`` is used only on the columns it touches. ``V V^T`` is subtracted
+  by ``dsyrk`` in place on the lower triangle of ``P`` (:mod:`mapper.slam_blas`); the upper
+  triangle of the landmark block is then stale and mirrored from the lower one before anyone
+  reads the whole ``P`` (the ``P`` property, the loop closure), so ``P`` is exactly symmetric
+  wherever it is read and the lower triangle is the one truth (the triangles cannot drift).
 - Association: Mahalanobis distance with a chi-square gate (``gate_probability``, 2 dof), then a
   global assignment per sweep (``scipy.optimize.linear_sum_assignment``), beyond the seed
   (its future work 6.2.4). Landmarks not seen for ``unseen_travel_m`` of travel are not
