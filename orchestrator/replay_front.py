@@ -75,7 +75,7 @@ def tick_inputs(config: AppConfig, path: Path, rate: float | None, n_ticks: int,
     times = times if times is not None else FrontEndTimes()
     dt_s = 1.0 / config.run.control_rate_hz
     clock = SimClock()
-    sensors = SensorManager(config, clock)
+    sensors = SensorManager(config, clock, keep_raw=False)  # a replay records nothing
     stream = iter(Player(path, rate=rate, topics=[*RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK]))
     clock_now = time.perf_counter
     t_read = clock_now()

@@ -78,11 +78,13 @@ class SensorManager:
     """Receivers, parsers and health of every enabled sensor.
 
     ``parsers`` overrides the parser of a source (tests, tools); the others come from
-    :func:`make_parser`. A source is enabled by ``config.sensors.<source>.enabled``.
+    :func:`make_parser`. A source is enabled by ``config.sensors.<source>.enabled``. With
+    ``keep_raw`` False, :meth:`take` returns no raw units (nothing will record them: replay).
     """
 
     def __init__(self, config: AppConfig, clock: Clock,
-                 parsers: Mapping[str, Parser | FrameDecoder] | None = None) -> None:
+                 parsers: Mapping[str, Parser | FrameDecoder] | None = None,
+                 keep_raw: bool = True) -> None:
         self.config = config
         self.clock = clock
         sc = config.sensors
@@ -94,7 +96,7 @@ class SensorManager:
         for source in self.enabled:
             parser = overrides.get(source) or make_parser(source, config)
             self.intakes[source] = Intake(source, parser, sc.queue_length, sc.rate_window_s,
-                                          sequence)
+                                          sequence, keep_raw)
         self.receivers: dict[str, Receiver] = {}
         self.rejects: collections.Counter[str] = collections.Counter()
         self._command_codec = CanCodec(sc.can.dbc or None)

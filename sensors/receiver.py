@@ -178,8 +178,11 @@ class Intake:
 
     def __init__(self, source: str, parser: Parser | FrameDecoder, queue_length: int = 4096,
                  rate_window_s: float = 2.0,
-                 sequence: Iterator[int] | None = None) -> None:
+                 sequence: Iterator[int] | None = None, keep_raw: bool = True) -> None:
         self.source = source
+        self.keep_raw = keep_raw
+        """Keep the raw units for :meth:`take` (for the recorder); False when nobody records
+        them (replay), which saves a deque entry per unit."""
         self.parser = parser
         self.queue_length = max(1, int(queue_length))
         self.rate_window_s = float(rate_window_s)
@@ -247,10 +250,11 @@ class Intake:
         seq = next(self._sequence)
         with self._lock:
             self.raw_count += 1
-            if len(self._pending_raw) >= self.queue_length:
-                self._pending_raw.popleft()
-                self.rejects["dropped_raw"] += 1
-            self._pending_raw.append((seq, raw))
+            if self.keep_raw:
+                if len(self._pending_raw) >= self.queue_length:
+                    self._pending_raw.popleft()
+                    self.rejects["dropped_raw"] += 1
+                self._pending_raw.append((seq, raw))
             for reading in readings:
                 key = reading_key(reading)
                 self.latest[key] = reading
