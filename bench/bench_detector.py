@@ -51,7 +51,7 @@ def _track() -> SimpleNamespace:
 
 def _sweeps(config: AppConfig, count: int) -> list[LidarPoints]:
     model = LidarModel(config, np.random.default_rng(1))
-    parser = LidarParser(config)
+    parser = LidarParser(config, all_points=True)  # every return, as before the window
     track = _track()
     speed = 8.0
     rate = speed / RADIUS_M

@@ -212,12 +212,17 @@ class LidarPoints:
     """One assembled LiDAR sweep: ``points`` is (N, 4) x, y, z (m, sensor frame), intensity.
 
     ``times_s`` (N,) is each return's time on the Clock; ``rings`` (N,) the laser index 0..15.
+    ``return_count`` is the sweep's returns before any window chose some at decoding (0: the
+    points are all of them); ``timestamp_s`` and ``start_s`` are the times of the sweep's last
+    and first returns, chosen or not (``start_s`` nan: the earliest of ``times_s``).
     """
 
     timestamp_s: float
     points: FloatArray
     times_s: FloatArray
     rings: IntArray
+    return_count: int = 0
+    start_s: float = math.nan
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "points", _frozen_array(self.points))

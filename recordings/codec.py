@@ -213,6 +213,8 @@ def _lidar_points(m: LidarPoints) -> pb.LidarPoints:
         points=_floats(m.points),
         times_s=_floats(m.times_s),
         rings=_ints(m.rings),
+        return_count=m.return_count,
+        start_s=m.start_s,
     )
 
 
@@ -444,6 +446,8 @@ def _lidar_points_back(p: pb.LidarPoints) -> LidarPoints:
         points=_array(p.points, (-1, 4)),
         times_s=_array(p.times_s),
         rings=_int_array(p.rings),
+        return_count=p.return_count,
+        start_s=p.start_s,
     )
 
 

@@ -181,16 +181,20 @@ class CameraCones(_message.Message):
     def __init__(self, timestamp_s: _Optional[float] = ..., cones: _Optional[_Iterable[_Union[ConeDetection, _Mapping]]] = ..., frame_id: _Optional[int] = ...) -> None: ...
 
 class LidarPoints(_message.Message):
-    __slots__ = ("timestamp_s", "points", "times_s", "rings")
+    __slots__ = ("timestamp_s", "points", "times_s", "rings", "return_count", "start_s")
     TIMESTAMP_S_FIELD_NUMBER: _ClassVar[int]
     POINTS_FIELD_NUMBER: _ClassVar[int]
     TIMES_S_FIELD_NUMBER: _ClassVar[int]
     RINGS_FIELD_NUMBER: _ClassVar[int]
+    RETURN_COUNT_FIELD_NUMBER: _ClassVar[int]
+    START_S_FIELD_NUMBER: _ClassVar[int]
     timestamp_s: float
     points: _containers.RepeatedScalarFieldContainer[float]
     times_s: _containers.RepeatedScalarFieldContainer[float]
     rings: _containers.RepeatedScalarFieldContainer[int]
-    def __init__(self, timestamp_s: _Optional[float] = ..., points: _Optional[_Iterable[float]] = ..., times_s: _Optional[_Iterable[float]] = ..., rings: _Optional[_Iterable[int]] = ...) -> None: ...
+    return_count: int
+    start_s: float
+    def __init__(self, timestamp_s: _Optional[float] = ..., points: _Optional[_Iterable[float]] = ..., times_s: _Optional[_Iterable[float]] = ..., rings: _Optional[_Iterable[int]] = ..., return_count: _Optional[int] = ..., start_s: _Optional[float] = ...) -> None: ...
 
 class PoseEstimate(_message.Message):
     __slots__ = ("timestamp_s", "x_m", "y_m", "yaw_rad", "vx_mps", "vy_mps", "yaw_rate_radps", "covariance")

@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from common.config import AppConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, LidarCones
-from sensors.velodyne import RING_ELEVATION_DEG
+from sensors.velodyne import RING_ELEVATION_DEG, ReturnWindow
 
 log = logging.getLogger(__name__)
 
@@ -70,17 +70,36 @@ class ConeDetector:
         self.stats: dict[str, int] = {}
         """Counts of the last call: points kept at each step, surfaces, preliminary cones."""
 
+    def return_window(self) -> ReturnWindow:
+        """The returns that can pass this detector's first filters (height above the ground,
+        horizontal range), with a margin: decoding only those gives the same cones, faster
+        (the car's own body and the ground are most of a sweep)."""
+        cfg = self.cfg
+        margin_m = 1e-6
+        return ReturnWindow(
+            min_range_m=max(cfg.min_range_m - margin_m, 0.0),
+            max_range_m=cfg.max_range_m + 1.0 + margin_m,
+            z_min_m=cfg.ground_clearance_m - self.lidar_z_m - margin_m,
+            z_max_m=cfg.max_point_height_m - self.lidar_z_m + margin_m,
+        )
+
     def detect(self, points: NDArray[np.float64], rings: NDArray[np.int64],
-               times_s: NDArray[np.float64], timestamp_s: float) -> LidarCones:
+               times_s: NDArray[np.float64], timestamp_s: float,
+               point_count: int = 0, start_s: float = math.nan) -> LidarCones:
         """Detect cones in one sweep.
 
         ``points`` (N, 4): x, y, z (m, sensor frame), intensity; ``rings`` (N,) 0..15 by
-        elevation; ``times_s`` (N,) each return's time; ``timestamp_s`` the sweep's end.
-        Returns cones in the vehicle frame, each stamped with the time it was seen.
+        elevation; ``times_s`` (N,) each return's time; ``timestamp_s`` the sweep's end;
+        ``point_count`` the sweep's returns when ``points`` are only those inside
+        :meth:`return_window` (0: N) and ``start_s`` the time of its first return (nan: the
+        earliest of ``times_s``). Returns cones in the vehicle frame, each stamped with the
+        time it was seen.
         """
         cfg = self.cfg
-        n_all = int(points.shape[0])
-        sweep_start = float(times_s.min()) if n_all else math.nan
+        n_all = int(point_count) or int(points.shape[0])
+        if math.isnan(start_s):
+            start_s = float(times_s.min()) if times_s.size else math.nan
+        sweep_start = start_s
         z_ground = points[:, 2] + self.lidar_z_m
         keep = (z_ground > cfg.ground_clearance_m) & (z_ground < cfg.max_point_height_m)
         idx = np.flatnonzero(keep)

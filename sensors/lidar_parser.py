@@ -26,15 +26,19 @@ class LidarParser:
     as :data:`sensors.velodyne.PACKET_DURATION_S` after its first firing. ``rejects`` counts
     bad datagrams by reason (``bad_length``, ``bad_flag``, ``bad_azimuth``); ``counts`` counts
     ``packets``, ``sweeps``, ``points`` and ``cones``. ``last_sweep`` keeps the last sweep's
-    points (for drawing and tests).
+    points (for drawing and tests): only those that can be part of a cone (the detector's
+    :meth:`~sensors.cone_detector.ConeDetector.return_window`: the ground and the car's own
+    body are left out while decoding), or every return with ``all_points``.
     """
 
     source = "lidar"
 
-    def __init__(self, config: AppConfig | None = None) -> None:
+    def __init__(self, config: AppConfig | None = None, all_points: bool = False) -> None:
         config = config if config is not None else AppConfig()
-        self.assembler = SweepAssembler(cut_azimuth_deg=config.sensors.lidar.cut_azimuth_deg)
         self.detector = ConeDetector(config)
+        window = None if all_points else self.detector.return_window()
+        self.assembler = SweepAssembler(cut_azimuth_deg=config.sensors.lidar.cut_azimuth_deg,
+                                        window=window)
         self.rejects: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()
         self.last_sweep: LidarPoints | None = None
@@ -58,7 +62,8 @@ class LidarParser:
 
     def _detect(self, sweep: LidarPoints) -> LidarCones:
         self.last_sweep = sweep
-        cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s)
+        cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s,
+                                     sweep.return_count, sweep.start_s)
         self.counts["sweeps"] += 1
         self.counts["points"] += cones.point_count
         self.counts["cones"] += len(cones.cones)

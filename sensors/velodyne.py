@@ -30,6 +30,7 @@ correction, :data:`LASER_VERTICAL_OFFSET_M`), added to z as the manual (and velo
 
 from __future__ import annotations
 
+import math
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -103,13 +104,28 @@ _SIN_EL = np.sin(np.radians(LASER_ELEVATION_DEG))
 
 
 @dataclass(frozen=True, slots=True)
+class ReturnWindow:
+    """The returns a consumer can use, chosen while decoding, before their azimuth and x, y are
+    computed (as the ROS velodyne driver's ``min_range`` / ``max_range``): horizontal range
+    ``d cos(el)`` in [``min_range_m``, ``max_range_m``] and height ``z`` in [``z_min_m``,
+    ``z_max_m``], sensor frame (m)."""
+
+    min_range_m: float = 0.0
+    max_range_m: float = math.inf
+    z_min_m: float = -math.inf
+    z_max_m: float = math.inf
+
+
+@dataclass(frozen=True, slots=True)
 class DecodedPackets:
-    """The returns of one or more packets (empty returns, distance 0, are left out).
+    """The returns of one or more packets (empty returns, distance 0, are left out, and those
+    outside the :class:`ReturnWindow` when one was given).
 
     ``points`` (N, 4): x, y, z (m, sensor frame), reflectivity (0..255);
     ``azimuth_deg`` (N,) each return's interpolated azimuth, [0, 360), clockwise from x;
     ``rings`` (N,) 0..15 by elevation; ``time_offset_s`` (N,) after the first firing of its
-    packet; ``packet_index`` (N,) which of the given payloads it came from.
+    packet; ``packet_index`` (N,) which of the given payloads it came from; ``returns`` the
+    non-empty returns before the window.
     """
 
     points: NDArray[np.float64]
@@ -117,6 +133,7 @@ class DecodedPackets:
     rings: NDArray[np.int64]
     time_offset_s: NDArray[np.float64]
     packet_index: NDArray[np.int64]
+    returns: int = 0
 
 
 def check_packet(payload: bytes) -> tuple[int, ...]:
@@ -135,8 +152,10 @@ def check_packet(payload: bytes) -> tuple[int, ...]:
     return fields
 
 
-def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedPackets:
-    """Decode VLP-16 data packets, vectorised over all of them.
+def decode_packets(payloads: Sequence[bytes], checked: bool = False,
+                   window: ReturnWindow | None = None) -> DecodedPackets:
+    """Decode VLP-16 data packets, vectorised over all of them; only the returns inside
+    ``window`` when one is given.
 
     Raises :class:`DecodeError` (message starting with the reject reason ``bad_length``,
     ``bad_flag`` or ``bad_azimuth``) if any of them is malformed; ``checked=True`` skips the
@@ -161,38 +180,47 @@ def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedP
     dual = mode == RETURN_MODE_DUAL
     any_dual = bool(dual.any())
 
-    # azimuth of each return: block azimuth + packet rotation rate x time since the block's
-    # first firing, in float32 and rounded like velodyne-decoder; dual-return packets hold
-    # each firing twice (blocks 2i, 2i+1) and span half the time
-    az_diff = (block_az[:, -1].astype(np.int64) - block_az[:, 0] + 36000) % 36000
-    duration = np.where(dual, _DUAL_SPAN_S, _SINGLE_SPAN_S)
-    rate = az_diff.astype(np.float32) / duration  # (P,) hundredths of a degree per second
-    az_f = (block_az.astype(np.float32)[:, :, None] + rate[:, None, None] * _DT_IN_BLOCK_S)
-    az_f += np.float32(36000)
-    azimuth = np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64) - 36000
-    azimuth[azimuth >= 36000] -= 36000
-
     valid = distance > 0
     if any_dual:
         # keep the strongest return (odd blocks) only, so each ring is one line of returns
         valid &= (~dual[:, None] | (np.arange(BLOCKS_PER_PACKET)[None, :] % 2 == 1))[:, :, None]
     flat = np.flatnonzero(valid)
+    returns = int(flat.size)
     laser_id = flat & 15
     dist_m = distance.ravel()[flat] * DISTANCE_UNIT_M
-    az_idx = azimuth.ravel()[flat]
+    xy = dist_m * _COS_EL[laser_id]
+    z = dist_m * _SIN_EL[laser_id] + LASER_VERTICAL_OFFSET_M[laser_id]
+    if window is not None:
+        inside = np.flatnonzero((xy >= window.min_range_m) & (xy <= window.max_range_m)
+                                & (z >= window.z_min_m) & (z <= window.z_max_m))
+        flat, laser_id = flat[inside], laser_id[inside]
+        xy, z = xy[inside], z[inside]
+
+    # azimuth of each return: block azimuth + packet rotation rate x time since the block's
+    # first firing, in float32 and rounded like velodyne-decoder; dual-return packets hold
+    # each firing twice (blocks 2i, 2i+1) and span half the time
     packet_index = flat // (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
+    in_block = flat & (RETURNS_PER_BLOCK - 1)
+    az_diff = (block_az[:, -1].astype(np.int64) - block_az[:, 0] + 36000) % 36000
+    duration = np.where(dual, _DUAL_SPAN_S, _SINGLE_SPAN_S)
+    rate = az_diff.astype(np.float32) / duration  # (P,) hundredths of a degree per second
+    az_f = (block_az.ravel().astype(np.float32)[flat // RETURNS_PER_BLOCK]
+            + rate[packet_index] * _DT_IN_BLOCK_S[in_block])
+    az_f += np.float32(36000)
+    az_idx = np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64) - 36000
+    az_idx[az_idx >= 36000] -= 36000
+
     in_packet = flat - packet_index * (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
     if any_dual:
         block = in_packet // RETURNS_PER_BLOCK
-        timing = np.where(dual[packet_index], block // 2, block) * RETURNS_PER_BLOCK + (flat & 31)
+        timing = np.where(dual[packet_index], block // 2, block) * RETURNS_PER_BLOCK + in_block
         time_offset = _RETURN_TIME_FLAT[timing]
     else:
         time_offset = _RETURN_TIME_FLAT[in_packet]
-    xy = dist_m * _COS_EL[laser_id]
     points = np.empty((flat.size, 4))
     points[:, 0] = xy * _COS_AZ[az_idx]
     points[:, 1] = -xy * _SIN_AZ[az_idx]
-    points[:, 2] = dist_m * _SIN_EL[laser_id] + LASER_VERTICAL_OFFSET_M[laser_id]
+    points[:, 2] = z
     points[:, 3] = rets["r"].ravel()[flat]
     return DecodedPackets(
         points=points,
@@ -200,6 +228,7 @@ def decode_packets(payloads: Sequence[bytes], checked: bool = False) -> DecodedP
         rings=LASER_RING[laser_id],
         time_offset_s=time_offset,
         packet_index=packet_index,
+        returns=returns,
     )
 
 
@@ -282,9 +311,12 @@ class SweepAssembler:
     :class:`DecodeError` on a bad packet (which is then not used).
     """
 
-    def __init__(self, cut_azimuth_deg: float = 180.0, max_gap_s: float = 0.05) -> None:
+    def __init__(self, cut_azimuth_deg: float = 180.0, max_gap_s: float = 0.05,
+                 window: ReturnWindow | None = None) -> None:
         self.cut_hundredths = int(round(cut_azimuth_deg * 100.0)) % 36000
         self.max_gap_s = max_gap_s
+        self.window = window
+        """Only the returns inside it are decoded (None: all); see :class:`ReturnWindow`."""
         self._payloads: list[bytes] = []
         self._stamps: list[float] = []
         self._head_from: int | None = None
@@ -334,7 +366,7 @@ class SweepAssembler:
         self._payloads, self._stamps = [], []
         if not payloads:
             return []
-        dec = decode_packets(payloads, checked=True)
+        dec = decode_packets(payloads, checked=True, window=self.window)
         t0 = self.clock.to_clock(np.asarray(stamps, dtype=np.float64))
         times = t0[dec.packet_index] + dec.time_offset_s
         points, rings = dec.points, dec.rings
@@ -353,11 +385,34 @@ class SweepAssembler:
                 self._head_from = split_from
             keep = _as_slice(mask)
         points, times, rings = points[keep], times[keep], rings[keep]
-        if points.shape[0] == 0:
+        span = self._span(payloads, t0, head_from, split_from, times)
+        if span is None:
             return []
         self.sweeps += 1
-        end_s = float(times.max())
-        return [LidarPoints(timestamp_s=end_s, points=points, times_s=times, rings=rings)]
+        return [LidarPoints(timestamp_s=span[1], points=points, times_s=times, rings=rings,
+                            return_count=dec.returns, start_s=span[0])]
+
+    def _span(self, payloads: Sequence[bytes], t0: NDArray[np.float64], head_from: int | None,
+              split_from: int | None, times: NDArray[np.float64]) -> tuple[float, float] | None:
+        """Times (Clock, s) of the sweep's first and last returns, windowed out or not: the
+        kept ``times`` and every return of the first and the last packet in this sweep (returns
+        come in time order, so these hold the extremes unless a whole end packet is empty).
+        None when the sweep has no return at all."""
+        if self.window is None:
+            return (float(times.min()), float(times.max())) if times.size else None
+        ends = [times]
+        for i in {0, len(payloads) - 1}:
+            d = decode_packets([payloads[i]], checked=True)
+            t = t0[i] + d.time_offset_s
+            rel = self._rel_of(d.azimuth_deg)
+            inside = np.ones(t.size, dtype=bool)
+            if i == 0 and head_from is not None:
+                inside &= rel < head_from
+            if i == len(payloads) - 1 and split_from is not None:
+                inside &= rel >= split_from
+            ends.append(t[inside])
+        every = np.concatenate(ends)
+        return (float(every.min()), float(every.max())) if every.size else None
 
     def _rel_of(self, azimuth_deg: NDArray[np.float64]) -> NDArray[np.int64]:
         """Azimuths (deg) as hundredths of a degree past the cut."""

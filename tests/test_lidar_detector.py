@@ -186,3 +186,50 @@ def test_tall_object_and_wall_are_not_cones() -> None:
     p = np.array(pts)
     out = det.detect(p, np.array(rings), np.zeros(len(p)), 0.1)
     assert out.cones == ()
+
+
+def test_decoding_window_changes_no_cone() -> None:
+    """Decoding only the returns inside the detector's window (no ground, not the car's own
+    body) gives exactly the cones of decoding them all, and the same point count."""
+    config = AppConfig()
+    track = _circle_track()
+    model = LidarModel(config, np.random.default_rng(3))
+    windowed, everything = LidarParser(config), LidarParser(config, all_points=True)
+    got: list[tuple[LidarCones, LidarCones]] = []
+    kept, total = 0, 0
+    for i in range(1, int(round(1.5 / 0.005)) + 1):
+        t = i * 0.005
+        for raw in model.poll(t, _truth(t, 8.0), None, track):
+            a = windowed.feed(raw.timestamp_s, raw.payload)
+            b = everything.feed(raw.timestamp_s, raw.payload)
+            assert len(a) == len(b)
+            got.extend(zip(a, b, strict=True))
+            if a:
+                assert windowed.last_sweep is not None and everything.last_sweep is not None
+                kept += windowed.last_sweep.points.shape[0]
+                total += everything.last_sweep.points.shape[0]
+    assert len(got) >= 12
+    assert sum(len(a.cones) for a, _ in got) > 50
+    for a, b in got:
+        assert a.cones == b.cones
+        assert a.timestamp_s == b.timestamp_s and a.point_count == b.point_count
+        assert a.sweep_start_s == b.sweep_start_s
+    assert kept < 0.6 * total  # the ground and the car's body are most of a sweep
+
+
+def test_sweep_with_nothing_in_the_window_still_reported() -> None:
+    """With no cone in view every return is ground or the car itself: the sweeps are still
+    reported (10 Hz, no cones), so the LiDAR does not look dead to the health check."""
+    config = AppConfig()
+    empty = SimpleNamespace(cones_xy_m=np.zeros((0, 2)), sizes=np.zeros(0, np.int64))
+    model = LidarModel(config, np.random.default_rng(4))
+    parser = LidarParser(config)
+    sweeps: list[LidarCones] = []
+    for i in range(1, int(round(1.0 / 0.005)) + 1):
+        t = i * 0.005
+        for raw in model.poll(t, _truth(t, 8.0), None, empty):
+            sweeps.extend(parser.feed(raw.timestamp_s, raw.payload))
+    assert 9 <= len(sweeps) <= 11
+    assert all(not s.cones and s.point_count > 1000 for s in sweeps)
+    last = parser.last_sweep
+    assert last is not None and last.points.shape[0] < 0.25 * last.return_count
