@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copyreg
 import dataclasses
+import enum
 import functools
 import io
 import logging
@@ -131,7 +132,7 @@ def tick_inputs_in_process(config: AppConfig, path: Path, rate: float | None, n_
     try:
         while True:
             try:
-                kind, payload = pickle.loads(receive.recv_bytes())
+                kind, payload = load_tick_message(receive.recv_bytes())
             except EOFError:
                 raise RecordingError(
                     f"{path}: the replay's front-end process ended without a word "
@@ -235,3 +236,36 @@ def _message_pickler() -> Callable[[object], bytes]:
 def _reduce_dataclass(cls: type, names: tuple[str, ...], obj: object
                       ) -> tuple[type, tuple[Any, ...]]:
     return cls, tuple([getattr(obj, name) for name in names])
+
+
+_ALLOWED_GLOBALS = {
+    "orchestrator.replay_front": {"TickInput", "FrontEndTimes"},
+    "recordings.codec": {"TrackRecord"},
+    "numpy": {"dtype", "ndarray"},
+    "numpy._core.numeric": {"_frombuffer"},
+    "numpy.core.numeric": {"_frombuffer"},
+    "numpy._core.multiarray": {"_reconstruct", "scalar"},
+    "numpy.core.multiarray": {"_reconstruct", "scalar"},
+}
+
+
+class _TickUnpickler(pickle.Unpickler):
+    """Unpickles only what the front end sends: the message dataclasses and enums, the tick
+    types, numpy arrays. Any other global (a function, a module) is refused, so even a
+    tampered stream cannot run code (the recording itself is read as protobuf only)."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if module == "common.messages":
+            obj = getattr(messages, name, None)
+            if isinstance(obj, type) and (dataclasses.is_dataclass(obj)
+                                          or issubclass(obj, enum.Enum)):
+                return obj
+        elif name in _ALLOWED_GLOBALS.get(module, ()):
+            return super().find_class(module, name)
+        raise pickle.UnpicklingError(f"replay front end: refusing to load {module}.{name}")
+
+
+def load_tick_message(data: bytes) -> tuple[str, Any]:
+    """A message of the front end, ``(kind, payload)``; see :class:`_TickUnpickler`."""
+    result: tuple[str, Any] = _TickUnpickler(io.BytesIO(data)).load()
+    return result
