@@ -1,8 +1,11 @@
 """Replay ``--max`` of the sample recording through the whole stack, no rendering (issue 5).
 
-Prints the wall and CPU time of the replay, the realtime factor (recording seconds per wall
-second; the issue asks for at least 20), the time of each stage of Main's tick and of reading
-the recording, and whether the replay reproduced the recorded run's ``outputs_sha256``. With
+Prints the wall and CPU time of the replay (CPU of Main's process; the front end that reads the
+recording and runs the Sensor Manager works in a second process beside it, see
+:mod:`orchestrator.replay_front`), the realtime factor (recording seconds per wall second; the
+issue asks for at least 20), the time of each stage of Main's tick and of the front end, and
+whether the replay reproduced the recorded run's ``outputs_sha256``. ``--single-process`` runs
+the front end in Main's process (the replay's ``--single-process``). With
 ``--profile`` it also runs cProfile and prints where the time goes by package and by function
 (the profiler itself slows the run about 2-3x; its shares, not its seconds, are the figure).
 The last line is ``realtime_factor=<x>``.
@@ -32,6 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", action="store_true",
                         help="also run under cProfile and print where the time goes")
     parser.add_argument("--top", type=int, default=25, help="functions listed with --profile")
+    parser.add_argument("--single-process", action="store_true",
+                        help="run the front end in Main's process (no second process)")
 
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:
@@ -45,7 +50,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     size_mb = path.stat().st_size / 1e6
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    summary = run_replay(config, ReplayOptions(path))
+    summary = run_replay(config, ReplayOptions(path, pipeline=not args.single_process))
     wall_s, cpu_s = time.perf_counter() - wall0, time.process_time() - cpu0
     timing = summary["timing"]
     sim_s = float(timing["sim_time_s"])
@@ -118,7 +123,7 @@ def _profile(config: AppConfig, path: Path, top: int) -> None:
 
     profiler = cProfile.Profile()
     profiler.enable()
-    run_replay(config, ReplayOptions(path))
+    run_replay(config, ReplayOptions(path, pipeline=False))  # the whole stack in one profile
     profiler.disable()
     stats = pstats.Stats(profiler)
     raw: dict[Any, Any] = stats.stats  # type: ignore[attr-defined]
