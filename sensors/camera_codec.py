@@ -11,10 +11,12 @@ from __future__ import annotations
 import logging
 import math
 from collections import Counter
+from dataclasses import replace
 
 from google.protobuf.message import DecodeError as ProtoDecodeError
 from google.protobuf.unknown_fields import UnknownFieldSet
 
+from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection
 from sensors import camera_pb2
@@ -71,15 +73,28 @@ def decode_camera_cones(payload: bytes) -> CameraCones:
 class CameraParser:
     """Camera datagrams in, :class:`CameraCones` out; bad datagrams counted in ``rejects``.
 
-    ``feed(timestamp_s, payload)``: ``timestamp_s`` is the arrival time (unused: the message
-    carries its image time); an empty datagram is rejected as ``empty``.
+    ``feed(timestamp_s, payload)``: ``timestamp_s`` is the arrival time on our clock. A frame
+    keeps its image time (plus ``sensors.camera.clock_offset_s``) when that is plausible: not
+    after its arrival (20 ms of jitter allowed) and not more than ``max_latency_s`` before it.
+    Otherwise the camera computer's clock is not ours, and its colour votes would be dropped as
+    stale or wait for a future that never comes: the frame and its cones are restamped
+    ``assumed_latency_s`` before arrival, counted in ``counts["restamped"]`` and logged, with
+    the measured skew in :attr:`last_skew_s`. An empty datagram is rejected as ``empty``.
     """
 
     source = "camera"
+    ARRIVAL_JITTER_S = 0.02
+    """How far after its arrival an image time may be before it is implausible (s)."""
 
-    def __init__(self) -> None:
+    def __init__(self, config: AppConfig | None = None) -> None:
+        cfg = (config if config is not None else AppConfig()).sensors.camera
+        self.clock_offset_s = cfg.clock_offset_s
+        self.max_latency_s = cfg.max_latency_s
+        self.assumed_latency_s = cfg.assumed_latency_s
         self.rejects: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()
+        self.last_skew_s = math.nan
+        """Arrival time less image time of the last restamped frame (s)."""
 
     def feed(self, timestamp_s: float, payload: bytes) -> list[CameraCones]:
         """Decode one datagram; a bad one is counted, logged and gives nothing."""
@@ -97,4 +112,26 @@ class CameraParser:
             return []
         self.counts["frames"] += 1
         self.counts["cones"] += len(cc.cones)
-        return [cc]
+        return [self._on_our_clock(cc, timestamp_s)]
+
+    def _on_our_clock(self, cc: CameraCones, arrival_s: float) -> CameraCones:
+        image_s = cc.timestamp_s + self.clock_offset_s
+        latency_s = arrival_s - image_s
+        if -self.ARRIVAL_JITTER_S <= latency_s <= self.max_latency_s:
+            shift_s = self.clock_offset_s
+        else:
+            shift_s = arrival_s - self.assumed_latency_s - cc.timestamp_s
+            self.last_skew_s = latency_s
+            self.counts["restamped"] += 1
+            n = self.counts["restamped"]
+            if n <= 3 or n % 1000 == 0:
+                log.warning("camera: image time %.3f s %s its arrival: the camera's clock is "
+                            "not ours (set sensors.camera.clock_offset_s); stamped %.3f s "
+                            "before arrival instead (%d frames so far)", abs(latency_s),
+                            "before" if latency_s > 0 else "after", self.assumed_latency_s, n)
+        if shift_s == 0.0:
+            return cc
+        return CameraCones(cc.timestamp_s + shift_s,
+                           tuple(replace(c, timestamp_s=c.timestamp_s + shift_s)
+                                 for c in cc.cones),
+                           cc.frame_id)

@@ -107,6 +107,15 @@ class CameraConfig:
     port: int = 5600
     timeout_s: float = 0.3
     read_timeout_s: float = 0.05
+    clock_offset_s: float = 0.0
+    """Added to the camera computer's image times to put them on this computer's clock (s):
+    0 when both are synchronised (chrony / PTP)."""
+    max_latency_s: float = 0.25
+    """An image time (plus the offset) more than this before its arrival, or after it, means
+    the two clocks disagree: the frame is then stamped on arrival less ``assumed_latency_s``
+    (counted as ``restamped`` and logged) rather than left to be dropped as stale (s)."""
+    assumed_latency_s: float = 0.1
+    """Image-to-arrival latency of the camera pipeline assumed when restamping (s)."""
 
 
 @dataclass(slots=True)

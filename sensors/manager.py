@@ -70,7 +70,7 @@ def make_parser(source: str, config: AppConfig) -> Parser | FrameDecoder:
         return LidarParser(config)  # type: ignore[no-any-return]
     if source == "camera":
         from sensors.camera_codec import CameraParser
-        return CameraParser()  # type: ignore[no-any-return]
+        return CameraParser(config)  # type: ignore[no-any-return]
     raise SensorError(f"unknown sensor source {source!r} (expected one of {', '.join(SOURCES)})")
 
 

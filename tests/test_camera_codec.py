@@ -135,3 +135,28 @@ def test_camera_model_exact_without_noise_and_dead() -> None:
             assert d.min() < 1e-5
     model.dead = True
     assert model.poll(1.0, GroundTruth(1.0, 0, 0, 0, 0, 0, 0), None, track) == []
+
+
+def test_camera_clock_skew_is_restamped_not_lost() -> None:
+    """A camera computer whose clock is 5 s off: its frames are restamped on arrival less the
+    assumed latency (counted), so their colour votes are not dropped as stale; a synchronised
+    frame keeps its image time; a configured offset is applied."""
+    frame = _frame()
+    payload = encode_camera_cones(frame)
+    parser = CameraParser()
+    (same,) = parser.feed(frame.timestamp_s + 0.06, payload)
+    assert same.timestamp_s == frame.timestamp_s and parser.counts["restamped"] == 0
+    for skew in (5.0, -5.0):
+        (late,) = parser.feed(frame.timestamp_s + skew, payload)
+        expected = frame.timestamp_s + skew - AppConfig().sensors.camera.assumed_latency_s
+        assert late.timestamp_s == pytest.approx(expected)
+        assert all(c.timestamp_s == pytest.approx(expected) for c in late.cones)
+        assert [(c.x_m, c.colour) for c in late.cones] == [(c.x_m, c.colour) for c in same.cones]
+        assert parser.last_skew_s == pytest.approx(skew)
+    assert parser.counts["restamped"] == 2
+    config = AppConfig()
+    config.sensors.camera.clock_offset_s = 5.0
+    shifted = CameraParser(config)
+    (on_ours,) = shifted.feed(frame.timestamp_s + 5.05, payload)
+    assert on_ours.timestamp_s == pytest.approx(frame.timestamp_s + 5.0)
+    assert shifted.counts["restamped"] == 0
