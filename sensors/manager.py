@@ -198,8 +198,9 @@ class SensorManager:
         for intake in self.intakes.values():
             r, p = intake.take_tagged()
             raw.extend(r)
-            readings.extend(p)
-            self._latest.update(intake.latest_copy())
+            if p:  # the latest readings change only with new ones
+                readings.extend(p)
+                self._latest.update(intake.latest_copy())
         raw.sort(key=_time_key)
         readings.sort(key=_time_key)
         return SensorBatch([u for _, u in raw], [r for _, r in readings], dict(self._latest))
