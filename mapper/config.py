@@ -227,6 +227,17 @@ class SlamConfig:
     """Rear wheel speed noise (m/s): sensor noise plus longitudinal slip (the simulated wheels
     slip ~1 %: 0.07 m/s at exploration speed). At 0.05 the filter was overconfident (pose NEES
     mean 5.1 for 3 dof, 74 % of steps in the 95 % band); at 0.07, 1.6 and 94 %."""
+    wheel_speed_sigma_fraction: float = 0.0
+    """Rear wheel speed noise proportional to the speed (white slip noise, a fraction); the
+    variance is ``wheel_speed_sigma_mps^2 + (fraction vx)^2``."""
+    wheel_slip_per_mps2: float = 0.002
+    """Longitudinal slip of the rear tyres per m/s^2 of the axle's longitudinal acceleration:
+    the wheels read ``vx (1 + k a_x)`` (faster when driving, slower when braking). Linear slip
+    stiffness, the slip at full grip over ``mu g``: 0.03 / (1.5 * 9.81) = 0.002 for the
+    simulated tyres (simulator/vehicle.py SLIP_AT_FULL_GRIP); fitted to the simulated rear
+    wheels' error against the true speed on gen:3: 0.0021. Unmodelled, the launch (a_x 4-6
+    m/s^2, +1.3 % wheel error) was a systematic speed error that the 0.07 m/s white noise does
+    not describe. 0: no slip model."""
     lateral_velocity_sigma_mps: float = 0.05
     """Non-holonomic pseudo-measurement: the rear axle slides sideways only by its slip."""
     rear_slip_rad_per_mps2: float = 0.0073

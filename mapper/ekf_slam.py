@@ -51,7 +51,8 @@ Models
   definite) and the new landmark is deleted. A backward sweep over the landmarks, newest first,
   then merges every duplicate (close in Euclidean and Mahalanobis distance to a landmark that was
   never seen at the same time).
-- Wheel odometry: the rear axle's forward speed (mean of the rear wheels) and a lateral
+- Wheel odometry: the rear axle's forward speed (mean of the rear wheels, which read
+  ``vx (1 + wheel_slip_per_mps2 a_x)``: the tyres' longitudinal slip) and a lateral
   pseudo-measurement: the rear axle slides outwards only by its tyres' slip angle in a corner
   (:func:`mapper.fusion.rear_slip_velocity`; zero slip is the plain non-holonomic
   constraint); the yaw rate is an input (gyro), not a state, so the steering angle is not
@@ -635,7 +636,9 @@ class EkfSlam:
         ``vy = vy_slip(vx, w)`` (:func:`mapper.fusion.rear_slip_velocity`; a zero
         ``rear_slip_rad_per_mps2`` gives the plain non-holonomic constraint), its noise growing
         with the slip (``lateral_slip_sigma_fraction``). ``steer`` is accepted for the
-        interface but not needed (the yaw rate is the gyro's).
+        interface but not needed (the yaw rate is the gyro's). The driven or braked rear
+        tyres slip: the wheels read ``vx (1 + k a_x)`` with ``a_x`` the axle's longitudinal
+        acceleration (the IMU input less its bias; ``k`` = ``wheel_slip_per_mps2``).
         """
         del steer
         if not self.cfg.use_odometry:
@@ -648,24 +651,32 @@ class EkfSlam:
         _, _, yaw, vx, vy = self._xbuf[:POSE_DIM]
         c, s = math.cos(yaw), math.sin(yaw)
         vxb, vyb = c * vx + s * vy, -s * vx + c * vy
-        w = self._corrected_input()[0]
+        w, ax, _ = self._corrected_input()
         a_max = (self.car.max_lateral_accel_mps2 if self.cfg.rear_slip_saturation
                  else math.inf)
         vy_slip, d_vx, d_w = rear_slip_velocity(vxb, w, self.cfg.rear_slip_rad_per_mps2, a_max)
+        # Longitudinal slip: the driven / braked rear tyres turn faster / slower than the axle
+        # moves, by a fraction proportional to the longitudinal force (a_x of the axle).
+        k = self.cfg.wheel_slip_per_mps2
+        scale = 1.0 + k * ax
         # d vxb / d (yaw, vx, vy) and d vyb / d (yaw, vx, vy)
         dvxb = np.array([vyb, c, s])
         dvyb = np.array([-vxb, -s, c])
         biased = self._pd > POSE_DIM
-        h = np.zeros((2, 4 if biased else 3))
-        h[0, :3] = dvxb
+        h = np.zeros((2, 5 if biased else 3))
+        h[0, :3] = scale * dvxb
         h[1, :3] = dvyb - d_vx * dvxb
         if biased:
             h[1, 3] = d_w                    # w = gyro - bias
-        pred = np.array([vxb, vyb - vy_slip])
+            h[0, 4] = -k * vxb               # a_x = accel - bias
+            if self.cfg.imu_lever_arm:       # a_x has w^2 r from the lever arm
+                h[0, 3] = -2.0 * k * vxb * w * self.car.imu_x_m
+        pred = np.array([scale * vxb, vyb - vy_slip])
         lat_sigma = (self.cfg.lateral_velocity_sigma_mps
                      + self.cfg.lateral_slip_sigma_fraction * abs(vy_slip))
-        r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2, lat_sigma ** 2])
-        cols = np.array([2, 3, 4, 5]) if biased else np.array([2, 3, 4])
+        r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2
+                     + (self.cfg.wheel_speed_sigma_fraction * vxb) ** 2, lat_sigma ** 2])
+        cols = np.array([2, 3, 4, 5, 6]) if biased else np.array([2, 3, 4])
         self._update_vehicle(cols, h, np.array([v, 0.0]) - pred, r)
         self.stats["odometry_updates"] += 1
 
