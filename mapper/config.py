@@ -189,8 +189,13 @@ class SlamConfig:
     imu_lever_arm: bool = True
     """Move the IMU's specific force from car.imu_x_m to the rear axle (centripetal, tangential)."""
     max_predict_dt_s: float = 0.1
-    initial_position_sigma_m: float = 1.0e-3
-    initial_yaw_sigma_rad: float = 1.0e-3
+    initial_position_sigma_m: float = 1.0e-5
+    initial_yaw_sigma_rad: float = 1.0e-5
+    """The world frame IS the car's start pose (common/conventions), so the initial pose error
+    is zero by definition; the tiny sigma only keeps P positive definite. At 1 mm / 1 mrad the
+    filter carried a rigid shift and rotation of the whole map that no run can have: the
+    pose NEES fell below the band wherever the true drift was small (default track, seed 1:
+    72 % of mapping steps in the band; 94 % without it, the same estimates)."""
     initial_velocity_sigma_mps: float = 0.05
     lidar_range_sigma_m: float = 0.02
     lidar_bearing_sigma_rad: float = 0.001
