@@ -101,4 +101,5 @@ class RunLog:
             if sel.any():
                 out[f"{name}_fraction_in_band"] = round(nees_fraction_in_band(values[sel], 3), 4)
                 out[f"{name}_mean"] = round(float(np.mean(values[sel])), 3)
+                out[f"{name}_steps"] = int(np.count_nonzero(sel))
         return out
