@@ -117,7 +117,7 @@ def motion_model(
     Returns the new pose (5,), the Jacobian F (5, 5) with respect to the pose and G (5, 3) with
     respect to the inputs (yaw rate, ax, ay).
     """
-    x, y, yaw, vx, vy = pose
+    x, y, yaw, vx, vy = pose.tolist()  # Python floats: scalar math on numpy items is slow
     t = dt_s
     h = 0.5 * t * t
     alpha = yaw + heading_factor_s * gyro_radps
@@ -131,13 +131,13 @@ def motion_model(
         vx + t * axg,
         vy + t * ayg,
     ])
-    f = np.eye(POSE_DIM)
-    f[0, 2] = -h * ayg
-    f[1, 2] = h * axg
-    f[0, 3] = t
-    f[1, 4] = t
-    f[3, 2] = -t * ayg
-    f[4, 2] = t * axg
+    f = np.array([
+        [1.0, 0.0, -h * ayg, t, 0.0],
+        [0.0, 1.0, h * axg, 0.0, t],
+        [0.0, 0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, -t * ayg, 1.0, 0.0],
+        [0.0, 0.0, t * axg, 0.0, 1.0],
+    ])
     k = heading_factor_s
     g = np.array([
         [-h * ayg * k, h * c, -h * s],
@@ -476,8 +476,9 @@ class EkfSlam:
         k = 0.5 * dt * dt if self._heading_seed else 0.5 * dt
         pd = self._pd
         pose = self._xbuf[:POSE_DIM]
+        speed_mps = math.hypot(float(pose[3]), float(pose[4]))
         new, f5, g = motion_model(pose, w, ax, ay, dt, k)
-        self.odometer_m += dt * math.hypot(pose[3], pose[4])
+        self.odometer_m += dt * speed_mps
         self._xbuf[:POSE_DIM] = new
         q_u = self._q_input / dt
         pxx = self._pbuf[:pd, :pd]
