@@ -114,8 +114,10 @@ class UkfConfig:
     odometry_speed_sigma_mps: float = 0.07
     """Wheel speed noise (m/s), slip included (as SlamConfig.wheel_speed_sigma_mps)."""
     odometry_yaw_rate_sigma_radps: float = 0.1
-    odometry_scale_sigma: float = 0.005
-    """Relative tyre-radius uncertainty: a systematic speed error, spread on the position."""
+    odometry_scale_sigma: float = 0.002
+    """Relative tyre-radius uncertainty (a radius measured to 1 mm): a systematic speed error,
+    spread on the position as a random walk. The walk overstates a constant scale error that
+    cones or GNSS correct every 0.1 s (0.005 made the along-track sigma 2.5 times the error)."""
     odometry_scale_time_s: float = 10.0
     odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
     odometry_gate_sigma: float = 5.0
@@ -144,9 +146,27 @@ class UkfConfig:
     magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
     heading_estimate_samples: int = 100
     """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
-    heading_estimate_max_yaw_rate_radps: float = 0.1
+    heading_estimate_max_yaw_rate_radps: float = 1.0
+    """Heading samples only while the filter turns slower than this (tight corners, where the
+    modelled slip angle is least sure, are left out)."""
+    heading_yaw_error_correlation_s: float = 5.0
+    """The filter's yaw error is taken as correlated over this long: averaging heading samples
+    over a longer span divides its variance by the number of spans (the frame heading's sigma)."""
+    gnss_heading_state: bool = True
+    """Estimate the GNSS world frame's heading error as a state (a constant: the world-frame
+    course reads yaw + slip + offset). An estimated frame heading is off by a few mrad, which
+    thousands of course updates would otherwise write into the yaw as a bias the covariance does
+    not know of."""
+    initial_gnss_heading_sigma_rad: float = 1.0e-6
+    """The offset state's sigma until the Mapper sets it from the frame estimate (about 0: a
+    frame given by the caller is taken as exact)."""
+    gnss_frame_refine: bool = True
+    """With the SLAM backend: at the map freeze the frame heading is re-estimated from every
+    course of the exploration lap against the SLAM's yaw (about 0.002 rad instead of 0.005)."""
     track_alignment_distance_m: float = 20.0
     """Fallback without courses: align the GNSS track with the filter's over this travel."""
+    track_alignment_heading_sigma_rad: float = 0.05
+    """Sigma of a frame heading from the track alignment (2.5 m noise over 20 m of travel)."""
 
 
 @dataclass(slots=True)

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from common.config import AppConfig
-from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world
+from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, wrap_angle
 from common.messages import (
     CameraCones,
     ConeColour,
@@ -193,15 +193,39 @@ class Mapper:
         pv = T @ P[:v, :v] @ T.T
         # The UKF's yaw-rate state is the last gyro sample less the bias: the gyro's noise.
         pv[5, 5] += self.config.mapper.ukf.gyro_sigma_radps ** 2
-        if v == 5 or ukf.n == 6:
+        keep = [ukf.ih] if ukf.ih is not None else []
+        if v == 5 or not ukf.nb:
             # Bias states in one filter only: they keep what set_imu_bias / reset gave them.
-            keep = slice(6, ukf.n)
+            keep += list(range(6, 6 + ukf.nb))
+        if keep:
+            kept = ukf.P[np.ix_(keep, keep)]
             pv[keep, :] = 0.0
             pv[:, keep] = 0.0
-            pv[keep, keep] = ukf.P[keep, keep]
+            pv[np.ix_(keep, keep)] = kept
         ukf.reset(ukf.pose(), covariance=0.5 * (pv + pv.T))
         ukf.t_s = slam.t_s
         ukf.set_map(slam.cone_map(), P[v:, v:], T @ P[:v, v:])
+        self._refine_gnss_frame()
+
+    def _refine_gnss_frame(self) -> None:
+        """At the freeze: the frame heading from every course of the exploration lap against the
+        SLAM's yaw (:meth:`GnssFrameEstimator.heading_estimate`); the UKF's offset state starts
+        at zero with its sigma."""
+        cfg = self.config.mapper.ukf
+        estimator = self._frame_estimator
+        if (not cfg.gnss_frame_refine or estimator is None or self.world_frame is None
+                or estimator.method != "course"):
+            return
+        estimate = estimator.heading_estimate()
+        if estimate is None:
+            return
+        heading, sigma = estimate
+        old = self.world_frame
+        self.world_frame = WorldFrame(old.enu, old.start_east_m, old.start_north_m,
+                                      wrap_angle(heading))
+        self.ukf.set_gnss_heading_offset(0.0, sigma)
+        log.info("GNSS frame heading refined over the exploration lap: %.4f -> %.4f rad "
+                 "(sigma %.4f)", old.start_yaw_enu_rad, heading, sigma)
 
     # -- per reading --------------------------------------------------------------------------
 
@@ -251,20 +275,34 @@ class Mapper:
             known = self.config.sim.start_heading_enu_rad if cfg.start_heading_known else None
             self._frame_estimator = GnssFrameEstimator(
                 self._enu, known, cfg.heading_estimate_samples, cfg.gnss_min_speed_mps,
-                cfg.track_alignment_distance_m)
+                cfg.track_alignment_distance_m,
+                max_yaw_rate_radps=cfg.heading_estimate_max_yaw_rate_radps,
+                yaw_error_correlation_s=cfg.heading_yaw_error_correlation_s)
         e, n, _ = self._enu.to_enu(fix.lat_deg, fix.lon_deg, self._enu.alt0_m)
         east, north = float(e), float(n)
-        if self.world_frame is None:
-            assert self._frame_estimator is not None
-            if self._slam_active():
-                p = self.slam.pose()
-                state = np.array([p.x_m, p.y_m, p.yaw_rad, p.vx_mps, p.vy_mps])
-            else:
-                state = self.ukf.x
-            self.world_frame = self._frame_estimator.add(east, north, fix.speed_mps,
-                                                         fix.course_rad, state)
-            self._count("gnss", "frame_pending" if self.world_frame is None else "frame_found")
-            return
+        estimator = self._frame_estimator
+        assert estimator is not None
+        if self.world_frame is None or (self._slam_active() and cfg.gnss_frame_refine):
+            # Until the frame is found, and on with the SLAM's yaw for the refinement at the
+            # freeze (not with the UKF's: once it takes courses its yaw leans on them).
+            p = self.slam.pose() if self._slam_active() else self.ukf.pose()
+            state = np.array([p.x_m, p.y_m, p.yaw_rad, p.vx_mps, p.vy_mps])
+            found = self.world_frame is None
+            self.world_frame = estimator.add(east, north, fix.speed_mps, fix.course_rad, state,
+                                             float(p.covariance[2, 2]), p.yaw_rate_radps,
+                                             fix.timestamp_s)
+            if found:
+                if self.world_frame is None:
+                    self._count("gnss", "frame_pending")
+                    return
+                self._count("gnss", "frame_found")
+                sigma = estimator.frame_sigma_rad
+                self.ukf.set_gnss_heading_offset(
+                    0.0, sigma if math.isfinite(sigma) and sigma > 0.0
+                    else cfg.initial_gnss_heading_sigma_rad if estimator.method == "known"
+                    else cfg.track_alignment_heading_sigma_rad)
+                return
+        assert self.world_frame is not None
         xy = self.world_frame.enu_to_world(east, north).reshape(2)
         if self._slam_active():
             self.slam.update_gps_xy(xy, np.eye(2) * self.config.mapper.slam.gps_sigma_m**2,
@@ -419,7 +457,7 @@ def slam_to_ukf_jacobian(ukf_x: np.ndarray, slam_dim: int, ukf_dim: int) -> np.n
     c, s = math.cos(yaw), math.sin(yaw)
     T[3, 3], T[3, 4], T[3, 2] = c, s, vy
     T[4, 3], T[4, 4], T[4, 2] = -s, c, -vx
-    if slam_dim > 5 and ukf_dim > 6:
+    if slam_dim > 5 and ukf_dim >= 9:
         T[5, 5] = -1.0
         T[6, 5] = T[7, 6] = T[8, 7] = 1.0
     return T

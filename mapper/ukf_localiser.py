@@ -3,22 +3,30 @@
 State ``x`` (6,): world position x_m, y_m, yaw_rad, vehicle-frame velocity vx_mps (forward),
 vy_mps (left) at the vehicle origin (rear axle), yaw_rate_radps. Covariance ``P`` (6, 6).
 
-Prediction (seed 001, algorithm 2) with 13 sigma points (n = 6), vectorised with numpy; the IMU's
-specific force is the input. Two corrections to the seed's model: the velocity derivatives carry
-the rotating-frame terms (``dvx = ax + w vy``, ``dvy = ay - w vx``; the seed writes
-``vy += ay dt`` from vx), and the IMU's lever arm ``car.imu_x_m`` is removed (centripetal
-``-w^2 r`` on x). The yaw rate follows the seed's blend
-``w = nu w + (1 - nu) gyro``. While the car stands still at the start, the IMU is averaged for
-its gyro and accelerometer biases (a static calibration) and the state is held at rest.
+Prediction (seed 001, algorithm 2) with 2 n + 1 sigma points, vectorised with numpy; the IMU's
+specific force is the input. Three corrections to the seed's model: the velocity derivatives
+carry the rotating-frame terms (``dvx = ax + w vy``, ``dvy = ay - w vx``; the seed writes
+``vy += ay dt`` from vx), the IMU's lever arm ``car.imu_x_m`` is removed (centripetal
+``-w^2 r`` on x), and the yaw integrates the mean of the interval's two yaw rates (the seed's
+``yaw += w dt`` with the previous rate lags by half an IMU period). The yaw rate follows the
+seed's blend ``w = nu w + (1 - nu) gyro``. While the car stands still at the start, the IMU is
+averaged for its gyro and accelerometer biases (a static calibration) and the state is held at
+rest.
+
+Optional states after the six: the gyro z and accelerometer x, y biases
+(``imu_bias_states``), and the GNSS world frame's heading offset (``gnss_heading_state``, a
+constant: :meth:`UkfLocaliser.set_gnss_heading_offset`), which the GNSS course and position
+models below carry.
 
 Updates (seed 001, II.B), each switchable (:class:`mapper.config.UkfConfig`) and each with a
 Mahalanobis rejection as robot_localization (``*_gate_sigma`` in sigma units; counted in
 ``stats``):
 
 - odometry: (vx, yaw rate) from the rear wheels (or the steering angle);
-- GNSS position (x, y) in the world frame;
+- GNSS position (x, y) in the world frame (turned by the heading offset about the start);
 - GNSS velocity and track, above ``gnss_min_speed_mps`` only: z = (course, speed) with the
-  unscented transform of h(x) = (yaw + atan2(vy + w a, vx), |(vx, vy + w a)|), a = antenna offset;
+  unscented transform of h(x) = (yaw + atan2(vy + w a, vx) + offset, |(vx, vy + w a)|),
+  a = antenna offset;
 - cones against a known map in the seed's *position form*: each detection d paired with its map
   cone m gives the car's position z = m - R(yaw_hat) d; the update is masked to the position
   (seed 001: "only the position is updated"), with the gain computed from the linearisation
@@ -60,7 +68,8 @@ log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 N_STATE = 6
-"""The pose and velocity states; with ``UkfConfig.imu_bias_states`` three IMU bias states follow."""
+"""The pose and velocity states; with ``UkfConfig.imu_bias_states`` three IMU bias states follow,
+then with ``UkfConfig.gnss_heading_state`` the GNSS frame's heading offset (the last state)."""
 N_BIAS = 3
 IX, IY, IYAW, IVX, IVY, IW = range(N_STATE)
 IBG, IBAX, IBAY = range(N_STATE, N_STATE + N_BIAS)
@@ -73,8 +82,12 @@ class UkfLocaliser:
                  initial_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.config = config
         self.car = car
-        self.n = n = N_STATE + (N_BIAS if config.imu_bias_states else 0)
-        """State size: 6, or 9 with the IMU bias states."""
+        self.nb = N_BIAS if config.imu_bias_states else 0
+        """IMU bias states (0 or 3), at N_STATE ... N_STATE + nb - 1."""
+        self.ih: int | None = N_STATE + self.nb if config.gnss_heading_state else None
+        """Index of the GNSS heading offset state (rad), or None."""
+        self.n = n = N_STATE + self.nb + (1 if self.ih is not None else 0)
+        """State size: 6, plus 3 IMU bias states, plus the GNSS heading offset."""
         lam = config.alpha**2 * (n + config.kappa) - n
         self._scale = math.sqrt(n + lam)
         self.wm = np.full(2 * n + 1, 1.0 / (2.0 * (n + lam)))
@@ -116,12 +129,15 @@ class UkfLocaliser:
         sig = [cfg.initial_position_sigma_m, cfg.initial_position_sigma_m,
                cfg.initial_yaw_sigma_rad, cfg.initial_velocity_sigma_mps,
                cfg.initial_velocity_sigma_mps, cfg.gyro_sigma_radps]
-        if n > N_STATE:
+        if self.nb:
             sig += [cfg.initial_gyro_bias_sigma_radps, cfg.initial_accel_bias_sigma_mps2,
                     cfg.initial_accel_bias_sigma_mps2]
+        if self.ih is not None:
+            sig.append(cfg.initial_gnss_heading_sigma_rad)
         p = np.diag(np.asarray(sig) ** 2)
         if n > N_STATE:
-            # A reset moves the pose; what was learnt about the IMU's biases is kept.
+            # A reset moves the pose; what was learnt about the IMU's biases and the GNSS
+            # frame is kept.
             self.x[N_STATE:] = old_bias
             if old_bias_p is not None:
                 p[N_STATE:, N_STATE:] = old_bias_p
@@ -152,7 +168,7 @@ class UkfLocaliser:
         with ``imu_bias_states``, the estimated states."""
         g = self.gyro_bias_radps
         ax, ay = float(self.accel_bias_mps2[0]), float(self.accel_bias_mps2[1])
-        if self.n > N_STATE:
+        if self.nb:
             g += float(self.x[IBG])
             ax += float(self.x[IBAX])
             ay += float(self.x[IBAY])
@@ -164,19 +180,44 @@ class UkfLocaliser:
         the map freeze): into the bias states (with their (3, 3) ``covariance``) when estimated,
         else as the fixed offsets. Ends the static calibration."""
         self.calibrating = False
-        if self.n > N_STATE:
+        if self.nb:
             self.gyro_bias_radps = 0.0
             self.accel_bias_mps2 = np.zeros(2)
-            self.x[N_STATE:] = bias
+            b = slice(N_STATE, N_STATE + self.nb)
+            self.x[b] = bias
             if covariance is not None:
-                self.P[N_STATE:, :N_STATE] = 0.0
-                self.P[:N_STATE, N_STATE:] = 0.0
-                self.P[N_STATE:, N_STATE:] = 0.5 * (covariance + covariance.T)
-                if self.PxL is not None:
-                    self.PxL[N_STATE:] = 0.0
+                self._set_block(b, 0.5 * (covariance + covariance.T))
         else:
             self.gyro_bias_radps = float(bias[0])
             self.accel_bias_mps2 = np.array([bias[1], bias[2]], np.float64)
+
+    def set_gnss_heading_offset(self, offset_rad: float, sigma_rad: float) -> None:
+        """The GNSS world frame's heading error: the world-frame GNSS course reads
+        ``yaw + slip + offset`` and the world-frame GNSS position is the true one turned by
+        ``offset`` about the start (the frame was estimated with a heading off by -offset).
+        Starts the state at ``offset_rad`` with ``sigma_rad``, uncorrelated with the rest; it is
+        then estimated (a constant: the cones fix the yaw, the courses then fix the offset).
+        Without ``gnss_heading_state`` this does nothing."""
+        if self.ih is None:
+            return
+        self.x[self.ih] = offset_rad
+        self._set_block(slice(self.ih, self.ih + 1), np.array([[sigma_rad * sigma_rad]]))
+
+    @property
+    def gnss_heading_offset(self) -> tuple[float, float]:
+        """The GNSS frame's heading offset estimate and its sigma (rad); (0, 0) without the
+        state."""
+        if self.ih is None:
+            return 0.0, 0.0
+        return float(self.x[self.ih]), math.sqrt(max(float(self.P[self.ih, self.ih]), 0.0))
+
+    def _set_block(self, block: slice, covariance: FloatArray) -> None:
+        """New states in ``block``: their covariance, no correlation with anything else."""
+        self.P[block, :] = 0.0
+        self.P[:, block] = 0.0
+        self.P[block, block] = covariance
+        if self.PxL is not None:
+            self.PxL[block] = 0.0
 
     def set_map(self, cone_map: ConeMap | None, covariance: FloatArray | None = None,
                 cross_covariance: FloatArray | None = None) -> None:
@@ -299,14 +340,11 @@ class UkfLocaliser:
         mean = self._calib_sum / n
         self.gyro_bias_radps = float(mean[0])
         self.accel_bias_mps2 = mean[1:].copy()
-        if self.n > N_STATE:
+        if self.nb:
             var = np.maximum(self._calib_sq / n - mean * mean, 1e-12) / n
-            self.x[N_STATE:] = 0.0
-            self.P[N_STATE:, :] = 0.0
-            self.P[:, N_STATE:] = 0.0
-            self.P[N_STATE:, N_STATE:] = np.diag(var)
-            if self.PxL is not None:
-                self.PxL[N_STATE:] = 0.0
+            b = slice(N_STATE, N_STATE + self.nb)
+            self.x[b] = 0.0
+            self._set_block(b, np.diag(var))
         log.info("IMU static calibration from %d samples: gyro bias %.5f rad/s, "
                  "accel bias (%.4f, %.4f) m/s^2", n, self.gyro_bias_radps, *self.accel_bias_mps2)
 
@@ -338,7 +376,7 @@ class UkfLocaliser:
             # Centripetal term only: the tangential one (dw/dt r) would need a differentiated
             # gyro, noisier than the term itself; vy is held by the lateral constraint anyway.
             # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
-            w = gz - float(self.x[IBG]) if self.n > N_STATE else gz
+            w = gz - float(self.x[IBG]) if self.nb else gz
             ax += w * w * self.car.imu_x_m
         self.predict_input(ax, ay, gz, dt)
         self.count("imu", "applied")
@@ -362,7 +400,7 @@ class UkfLocaliser:
         cfg = self.config
         chi = self._sigma_points()
         x, y, yaw, vx, vy, w = chi.T[:N_STATE]
-        biased = self.n > N_STATE
+        biased = self.nb > 0
         if biased:
             gyro = gyro_radps - chi[:, IBG]
             ax = ax_mps2 - chi[:, IBAX]
@@ -374,12 +412,14 @@ class UkfLocaliser:
         out = np.empty_like(chi)
         out[:, IX] = x + (vx * c - vy * s) * dt_s
         out[:, IY] = y + (vx * s + vy * c) * dt_s
-        out[:, IYAW] = yaw + w * dt_s
         out[:, IVX] = vx + (ax + w * vy) * dt_s
         out[:, IVY] = vy + (ay - w * vx) * dt_s
         out[:, IW] = nu * w + (1.0 - nu) * gyro
-        if biased:
-            out[:, N_STATE:] = chi[:, N_STATE:]
+        # The yaw over the interval with the mean of its two yaw rates (trapezoid): the seed's
+        # yaw += w dt with the previous sample's rate lags the yaw by half an IMU period
+        # (2.5 ms at 200 Hz: 2 mrad at 1 rad/s, as large as the yaw's sigma).
+        out[:, IYAW] = yaw + 0.5 * (w + out[:, IW]) * dt_s
+        out[:, N_STATE:] = chi[:, N_STATE:]  # biases and the GNSS heading offset: constant
         mean, cov = self._mean_cov(out, (IYAW,))
         if biased:
             # The biases are states: only the white noise (and the unmodelled) is process noise.
@@ -400,6 +440,8 @@ class UkfLocaliser:
             q += [cfg.gyro_bias_walk_radps_rths**2 * dt_s,
                   cfg.accel_bias_walk_mps2_rths**2 * dt_s,
                   cfg.accel_bias_walk_mps2_rths**2 * dt_s]
+        if self.ih is not None:
+            q.append(0.0)
         if self.PxL is not None:
             # The map errors do not move: their cross-covariance goes through the prediction's
             # statistical linearisation F = P_{x'x} P^-1 (the process noise is independent).
@@ -543,7 +585,16 @@ class UkfLocaliser:
         H = np.zeros((2, self.n))
         H[0, IX] = 1.0
         H[1, IY] = 1.0
-        return self._update_linear("gnss_position", z - self.x[:2], H, R,
+        predicted = self.x[:2].copy()
+        if self.ih is not None:
+            # The frame turned by the offset b about the start: h = p + b (-y, x) (small b).
+            px, py, b = float(self.x[IX]), float(self.x[IY]), float(self.x[self.ih])
+            predicted += b * np.array([-py, px])
+            H[0, self.ih] = -py
+            H[1, self.ih] = px
+            H[0, IY] = -b
+            H[1, IX] = b
+        return self._update_linear("gnss_position", z - predicted, H, R,
                                    cfg.gnss_position_gate_sigma)
 
     def update_gnss_velocity(self, speed_mps: float, course_world_rad: float,
@@ -564,11 +615,14 @@ class UkfLocaliser:
         sv = cfg.gnss_speed_sigma_mps if speed_sigma_mps is None else speed_sigma_mps
         s_track = max(sv / speed_mps, cfg.gnss_track_sigma_floor_rad)
         a = cfg.gnss_antenna_x_m
+        ih = self.ih
 
         def h(chi: FloatArray) -> FloatArray:
             vy = chi[:, IVY] + chi[:, IW] * a
-            return np.stack([chi[:, IYAW] + np.arctan2(vy, chi[:, IVX]),
-                             np.hypot(chi[:, IVX], vy)], axis=1)
+            course = chi[:, IYAW] + np.arctan2(vy, chi[:, IVX])
+            if ih is not None:
+                course = course + chi[:, ih]
+            return np.stack([course, np.hypot(chi[:, IVX], vy)], axis=1)
 
         z = np.array([course_world_rad, speed_mps])
         R = np.diag([s_track**2, sv**2])
