@@ -182,7 +182,8 @@ class GnssFrameEstimator:
     def __init__(self, enu: LocalTangentFrame, known_heading_enu_rad: float | None,
                  heading_samples: int, min_speed_mps: float, alignment_distance_m: float,
                  min_fixes: int = 10, max_yaw_rate_radps: float = math.inf,
-                 yaw_error_correlation_s: float = math.inf) -> None:
+                 yaw_error_correlation_s: float = math.inf,
+                 alignment_heading_sigma_rad: float = 0.05) -> None:
         self.enu = enu
         self.known_heading = known_heading_enu_rad
         self.heading_samples = max(1, heading_samples)
@@ -191,6 +192,7 @@ class GnssFrameEstimator:
         self.min_fixes = min_fixes
         self.max_yaw_rate_radps = max_yaw_rate_radps
         self.yaw_error_correlation_s = yaw_error_correlation_s
+        self.alignment_heading_sigma_rad = alignment_heading_sigma_rad
         self._en: list[tuple[float, float]] = []
         self._p: list[tuple[float, float]] = []
         self._samples: list[tuple[float, float, float, float]] = []
@@ -230,7 +232,7 @@ class GnssFrameEstimator:
             self.method = "course"
         elif self._travel_m >= self.alignment_distance_m and not self._samples:
             heading = self._procrustes_heading()
-            sigma = math.nan
+            sigma = self.alignment_heading_sigma_rad
             self.method = "track_alignment"
         if heading is None:
             return None

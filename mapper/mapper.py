@@ -49,7 +49,7 @@ from common.messages import (
 from mapper.fusion import DelayBuffer, GnssFrameEstimator, compensate_motion, predict_forward
 from mapper.object_filter import ObjectFilter, detection_sizes, localise_objects
 from mapper.time_smoother import N_COLOURS, TimeSmoother
-from mapper.ukf_localiser import UkfLocaliser
+from mapper.ukf_localiser import N_BIAS, N_STATE, UkfLocaliser
 
 log = logging.getLogger(__name__)
 
@@ -277,7 +277,8 @@ class Mapper:
                 self._enu, known, cfg.heading_estimate_samples, cfg.gnss_min_speed_mps,
                 cfg.track_alignment_distance_m,
                 max_yaw_rate_radps=cfg.heading_estimate_max_yaw_rate_radps,
-                yaw_error_correlation_s=cfg.heading_yaw_error_correlation_s)
+                yaw_error_correlation_s=cfg.heading_yaw_error_correlation_s,
+                alignment_heading_sigma_rad=cfg.track_alignment_heading_sigma_rad)
         e, n, _ = self._enu.to_enu(fix.lat_deg, fix.lon_deg, self._enu.alt0_m)
         east, north = float(e), float(n)
         estimator = self._frame_estimator
@@ -296,11 +297,9 @@ class Mapper:
                     self._count("gnss", "frame_pending")
                     return
                 self._count("gnss", "frame_found")
-                sigma = estimator.frame_sigma_rad
+                # A known heading (sigma 0) keeps the configured, about-zero sigma.
                 self.ukf.set_gnss_heading_offset(
-                    0.0, sigma if math.isfinite(sigma) and sigma > 0.0
-                    else cfg.initial_gnss_heading_sigma_rad if estimator.method == "known"
-                    else cfg.track_alignment_heading_sigma_rad)
+                    0.0, max(estimator.frame_sigma_rad, cfg.initial_gnss_heading_sigma_rad))
                 return
         assert self.world_frame is not None
         xy = self.world_frame.enu_to_world(east, north).reshape(2)
@@ -457,7 +456,7 @@ def slam_to_ukf_jacobian(ukf_x: np.ndarray, slam_dim: int, ukf_dim: int) -> np.n
     c, s = math.cos(yaw), math.sin(yaw)
     T[3, 3], T[3, 4], T[3, 2] = c, s, vy
     T[4, 3], T[4, 4], T[4, 2] = -s, c, -vx
-    if slam_dim > 5 and ukf_dim >= 9:
+    if slam_dim > 5 and ukf_dim >= N_STATE + N_BIAS:
         T[5, 5] = -1.0
         T[6, 5] = T[7, 6] = T[8, 7] = 1.0
     return T

@@ -196,7 +196,8 @@ class UkfLocaliser:
         ``yaw + slip + offset`` and the world-frame GNSS position is the true one turned by
         ``offset`` about the start (the frame was estimated with a heading off by -offset).
         Starts the state at ``offset_rad`` with ``sigma_rad``, uncorrelated with the rest; it is
-        then estimated (a constant: the cones fix the yaw, the courses then fix the offset).
+        then estimated as a constant, learnt only where something else fixes the yaw (the
+        unmasked cone update; under seed 001's position-only mask it keeps about its prior).
         Without ``gnss_heading_state`` this does nothing."""
         if self.ih is None:
             return
