@@ -57,11 +57,14 @@ class ControllerConfig:
     mode_switch_accel_mps2: float = 0.4
     """Hysteresis between throttle and brake modes on the wanted acceleration."""
     speed_preview_s: float = 0.25
-    steering_law: Literal["pure_pursuit", "stanley", "heading_p"] = "pure_pursuit"
+    steering_law: Literal["preview", "pure_pursuit", "stanley", "heading_p"] = "preview"
     lookahead_min_m: float = 3.0
     lookahead_max_m: float = 12.0
     lookahead_time_s: float = 0.45
     lookahead_base_m: float = 2.0
+    preview_time_s: float = 0.1
+    """Preview law: the path's curvature is read this far ahead (the steering's lag)."""
+    preview_damping: float = 0.9
     heading_kp: float = 0.6
     stanley_k: float = 1.5
     stanley_soft_mps: float = 1.0

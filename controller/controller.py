@@ -16,7 +16,14 @@ from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate
 from controller.config import ControllerConfig
 from controller.pid import PID, LongitudinalController, RateLimiter, clip
 from controller.safety import SafetyStatus, SafetySupervisor, StopKind
-from controller.steering import HeadingP, Lookahead, PathRef, PurePursuit, Stanley, SteeringLaw
+from controller.steering import (
+    CurvaturePreview,
+    HeadingP,     Lookahead,
+    PathRef,
+    PurePursuit,
+    Stanley,
+    SteeringLaw,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -32,6 +39,9 @@ def make_steering_law(config: ControllerConfig, car: CarConfig) -> SteeringLaw:
         return Stanley(car.wheelbase_m, config.stanley_k, config.stanley_soft_mps)
     if config.steering_law == "heading_p":
         return HeadingP(config.heading_kp, look)
+    if config.steering_law == "preview":
+        return CurvaturePreview(car.wheelbase_m, look, config.preview_time_s,
+                                config.preview_damping)
     return PurePursuit(car.wheelbase_m, look)
 
 

@@ -169,3 +169,35 @@ class Stanley(SteeringLaw):
         # curvature feedforward keeps the front axle on a curve
         return (heading_error + math.atan2(self.k * error, abs(speed_mps) + self.soft_mps)
                 + math.atan(self.wheelbase_m * kappa))
+
+
+class CurvaturePreview(SteeringLaw):
+    """Curvature feedforward with a preview, plus feedback on the lateral and heading errors:
+
+        delta = atan(L kappa(s + v t_p)) + k_e e + k_psi e_psi
+
+    with e the rear axle's distance to the path (positive when the path is to the left) and
+    e_psi the path's heading less the car's. On the kinematic bicycle the errors then obey
+    e'' + (v k_psi / L) e' + (v^2 k_e / L) e = 0; the gains are scheduled so that the error
+    settles over the look-ahead distance l (natural frequency v / l, damping ``damping``):
+    k_e = L / l^2, k_psi = 2 damping L / l. Unlike pure pursuit it does not cut corners: the
+    feedforward steers the path's own curvature, the feedback only the error.
+    """
+
+    def __init__(self, wheelbase_m: float, lookahead: Lookahead, preview_s: float = 0.1,
+                 damping: float = 0.9) -> None:
+        self.wheelbase_m = wheelbase_m
+        self.lookahead = lookahead
+        self.preview_s = preview_s
+        self.damping = damping
+
+    def update(self, x_m: float, y_m: float, yaw_rad: float, speed_mps: float,
+               path: PathRef) -> float:
+        s, error = path.nearest(x_m, y_m)
+        _, _, path_yaw, _ = path.at(s)
+        _, _, _, kappa = path.at(s + max(speed_mps, 0.0) * self.preview_s)
+        heading_error = math.remainder(path_yaw - yaw_rad, 2.0 * math.pi)
+        ld = self.lookahead(speed_mps)
+        k_e = self.wheelbase_m / (ld * ld)
+        k_psi = 2.0 * self.damping * self.wheelbase_m / ld
+        return math.atan(self.wheelbase_m * kappa) + k_e * error + k_psi * heading_error

@@ -307,6 +307,11 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "best_lap_time_s": min(lap_times) if lap_times else None,
         "exploration_lap_time_s": _round(runner.person.exploration_lap_time_s),
         "cones_hit": len(world.cones_hit),
+        "cone_hits": [
+            {"time_s": round(t, 3), "cone": int(i),
+             "xy_m": [round(float(v), 3) for v in track.cones_xy_m[i]],
+             "phase": "autonomous" if t >= runner.person.handover_time_s else "exploration"}
+            for t, i in world.cone_hits],
         "off_track": world.off_track_events,
         "pose_rmse_m": _round(errors["pose_rmse_m"], 4),
         "heading_rmse_rad": _round(errors["heading_rmse_rad"], 5),

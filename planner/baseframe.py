@@ -213,6 +213,41 @@ class SplineBaseframe:
             return float(self._s[i]), float(math.hypot(x_m - self._x[i], y_m - self._y[i]))
         return float(self._wrap_s(best[1])), float(best[2])
 
+    def project_many(self, xy_m: ArrayLike) -> tuple[FloatArray, FloatArray]:
+        """Frenet (s, d) of many points (N, 2) at once, each onto its nearest part of the frame
+        (no branch hint: for a frame that does not cross itself). d > 0 left of the frame."""
+        pts = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        if len(pts) == 0:
+            return np.zeros(0), np.zeros(0)
+        _, idx = self._tree.query(pts)
+        idx = np.asarray(idx, np.int64)
+        best_s = np.zeros(len(pts))
+        best_d = np.zeros(len(pts))
+        best_d2 = np.full(len(pts), np.inf)
+        for shift in (-1, 0):
+            a = idx + shift
+            b = a + 1
+            if self.closed:
+                a = np.mod(a, self._m)
+                b = np.where(np.mod(b, self._m) == 0, self._m, np.mod(b, self._m))
+                valid = np.ones(len(pts), bool)
+            else:
+                valid = (a >= 0) & (b <= self._m - 1)
+                a = np.clip(a, 0, self._m - 1)
+                b = np.clip(b, 0, self._m - 1)
+            ax, ay, bx, by = self._x[a], self._y[a], self._x[b], self._y[b]
+            vx, vy = bx - ax, by - ay
+            seg2 = np.maximum(vx * vx + vy * vy, 1e-18)
+            t = np.clip(((pts[:, 0] - ax) * vx + (pts[:, 1] - ay) * vy) / seg2, 0.0, 1.0)
+            px, py = ax + t * vx, ay + t * vy
+            dist2 = (pts[:, 0] - px) ** 2 + (pts[:, 1] - py) ** 2
+            side = vx * (pts[:, 1] - ay) - vy * (pts[:, 0] - ax)
+            better = valid & (dist2 < best_d2)
+            best_d2 = np.where(better, dist2, best_d2)
+            best_s = np.where(better, self._s[a] + t * (self._s[b] - self._s[a]), best_s)
+            best_d = np.where(better, np.copysign(np.sqrt(dist2), side), best_d)
+        return self._wrap_s(best_s), best_d
+
     def distance_m(self, x_m: float, y_m: float) -> float:
         """Distance from the baseframe (m), to the nearest sample."""
         dist, _ = self._tree.query([x_m, y_m])

@@ -22,6 +22,9 @@ class PlannerConfig:
     loop_close_distance_m: float = 4.0
     """The recorded drive is a closed lap when it comes back within this of its first waypoint."""
     min_loop_length_m: float = 30.0
+    loop_bridge_max_m: float = 12.0
+    """A drive that ends this close to its start, heading for it, is a lap (the map's loop
+    may close before the car is back at its first waypoint)."""
 
     # Waypoints from the cone map (no exploration drive)
     max_cone_pair_distance_m: float = 7.0
@@ -40,11 +43,25 @@ class PlannerConfig:
     centre_on_cones: bool = True
     max_centring_shift_m: float = 2.0
 
+    # Track model and racing line (closed laps)
+    racing_line: bool = True
+    """Race on the minimum-curvature line inside the mapped boundaries (else the centreline)."""
+    track_step_m: float = 1.0
+    """Spacing of the track model's centreline samples."""
+    track_max_lateral_m: float = 6.0
+    """Cones farther than this from the guide path belong to no boundary."""
+    cone_radius_m: float = 0.15
+    """Base radius of the largest cone (285 mm base): contact is a car body this close."""
+    racing_margin_m: float = 0.3
+    """Room the racing line leaves between the car's body and a cone's base: tracking plus
+    localisation error."""
+    racing_line_smoothing_m: float = 1.0
+
     # Manoeuvres (seed 002, 3.2.2)
     offsets_max_m: float = 1.5
     offsets_count: int = 13
-    horizon_time_s: float = 1.2
-    horizon_min_m: float = 8.0
+    horizon_time_s: float = 0.8
+    horizon_min_m: float = 6.0
     horizon_max_m: float = 20.0
     extension_m: float = 12.0
     """Length the chosen offset is held along the baseframe beyond the horizon (for look-ahead)."""
@@ -52,27 +69,39 @@ class PlannerConfig:
     stitch_tolerance_m: float = 0.0
     """A new manoeuvre starts from the previous one's offset and slope at the car's arc length
     when the car is within this of it (0: always from the car's pose and heading)."""
-    cone_clearance_m: float = 0.4
-    """Cone centre to car side: half the car's width plus this, at every point of a candidate."""
+    cone_clearance_m: float = 0.2
+    """Hard limit: a cone's centre at least this far from the circles covering the car's body,
+    at every point of a candidate (a cone's base radius plus a few centimetres)."""
     cone_clearance_near_m: float = 0.15
-    """Margin at the car's own position (it is already there): about a cone's base radius."""
+    """Hard limit at the car's own position (it is already there): a cone's base radius."""
     clearance_ramp_m: float = 4.0
     """The margin grows from the near to the full value over this distance along a candidate
     (or over the distance driven in ``clearance_ramp_time_s``, whichever is longer)."""
     clearance_ramp_time_s: float = 0.6
     curvature_limit_fraction: float = 0.9
     """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
-    weight_curvature: float = 2.0
-    weight_offset: float = 0.3
+    weight_curvature: float = 0.2
+    """The baseframe is the racing line: a candidate's own curvature counts little."""
+    weight_offset: float = 2.0
     weight_consistency: float = 1.0
-    weight_clearance: float = 4.0
-    preferred_clearance_m: float = 0.6
+    weight_clearance: float = 20.0
+    preferred_clearance_m: float = 0.45
+    """Room (cone centre to the car's body) below which a candidate pays a cost: the cone's
+    radius plus the racing margin."""
+    offsets_wide_max_m: float = 2.5
+    offsets_wide_count: int = 41
+    """The widened search when no configured offset is feasible."""
+    fallback_speed_mps: float = 4.0
+    """Speed cap of the short-horizon manoeuvres tried last."""
     cone_search_radius_m: float = 30.0
 
     # Speed profile
     speed_mode: Literal["profile", "two_level"] = "profile"
     friction_safety_factor: float = 0.7
-    """Fraction of the car's lateral, drive and brake limits the profile plans with."""
+    """Fraction of the car's drive and brake limits the profile plans with."""
+    lateral_safety_factor: float = 0.6
+    """Fraction of the car's lateral limit the profile plans with: the tyres' response flattens
+    towards the limit, and the steering needs room left to correct the car."""
     max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0

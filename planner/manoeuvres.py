@@ -9,8 +9,9 @@ dropped; the rest are graded on curvature, clearance, offset and agreement with 
 
 from __future__ import annotations
 
+import collections
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,6 +42,8 @@ class Candidate:
     reason: str = ""
     collision_free: bool = True
     max_curvature_1pm: float = 0.0
+    speed_cap_mps: float = math.inf
+    """A fallback manoeuvre (short horizon, sharp) is driven no faster than this (m/s)."""
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -71,6 +74,8 @@ class ManoeuvreGenerator:
         self.circle_offsets_m = rear + spacing * (np.arange(n) + 0.5)
         self.circle_radius_m = math.hypot(half_w, spacing / 2.0)
         self.required_m = self.circle_radius_m + config.cone_clearance_m
+        self.rejections: collections.Counter[str] = collections.Counter()
+        """Rejected candidates by family and check (``"nominal: clearance"``, ...)."""
 
     def offsets(self) -> FloatArray:
         """The end-state offsets (m), symmetric about the baseframe."""
@@ -93,14 +98,63 @@ class ManoeuvreGenerator:
         last_offset_m: float | None,
         start: tuple[float, float] | None = None,
     ) -> tuple[list[Candidate], int]:
-        """All candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
+        """Candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
         none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame).
 
         ``start`` = (d, dd/ds) overrides the start state (offset (m) and slope) taken from the
-        car: the planner passes the previous plan's state at s0 so that successive plans agree
-        and the controller, not the replanning, corrects the car's deviation from the path."""
+        car. The search widens until a feasible candidate is found: the configured offsets over
+        the speed's horizon, then more and wider offsets, then shorter horizons (a slower,
+        sharper manoeuvre: those carry a speed cap). Each family's rejections are counted in
+        :attr:`rejections` (``family: check``)."""
+        tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
+        cands: list[Candidate] = []
+        for family, offsets, horizon, cap in self._families(speed_mps):
+            cands = self._family(frame, s0_m, d0_m, yaw_rad, speed_mps, tree, last_offset_m,
+                                 start, offsets, horizon, cap)
+            if not cands:
+                return [], -1
+            feasible = [i for i, cand in enumerate(cands) if cand.feasible]
+            for cand in cands:
+                if not cand.feasible:
+                    self.rejections[f"{family}: {cand.reason.split(' ')[0]}"] += 1
+            if feasible:
+                return cands, min(feasible, key=lambda i: cands[i].cost)
+        # none within the curvature limit: the least bent collision-free one (the car is slow
+        # there and steers at its limit), so a track at the car's limit does not stop it
+        clear = [i for i, cand in enumerate(cands) if cand.collision_free]
+        if clear:
+            return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
+        return cands, -1
+
+    def _families(self, speed_mps: float) -> list[tuple[str, FloatArray, float, float]]:
+        """(name, end offsets (m), horizon (m), speed cap (m/s)) in the order they are tried."""
         c = self.config
         horizon = self.horizon_m(speed_mps)
+        wide = np.linspace(-c.offsets_wide_max_m, c.offsets_wide_max_m,
+                           max(c.offsets_wide_count, 1))
+        short = max(0.5 * c.horizon_min_m, 2.0 * c.path_step_m * 4)
+        return [
+            ("nominal", self.offsets(), horizon, math.inf),
+            ("wide", wide, horizon, math.inf),
+            ("short", wide, c.horizon_min_m, c.fallback_speed_mps),
+            ("shortest", wide, short, c.fallback_speed_mps),
+        ]
+
+    def _family(
+        self,
+        frame: SplineBaseframe,
+        s0_m: float,
+        d0_m: float,
+        yaw_rad: float,
+        speed_mps: float,
+        tree: cKDTree | None,
+        last_offset_m: float | None,
+        start: tuple[float, float] | None,
+        offsets: FloatArray,
+        horizon: float,
+        speed_cap_mps: float,
+    ) -> list[Candidate]:
+        c = self.config
         if start is not None:
             d0_m, slope0 = float(start[0]), float(start[1])
         else:
@@ -112,14 +166,13 @@ class ManoeuvreGenerator:
         if not frame.closed:  # an open frame ends: so do the candidates
             total = min(total, frame.length_m - s0_m)
             if total < 2.0 * c.path_step_m:
-                return [], -1
+                return []
             horizon = min(horizon, 0.7 * total)
         n = max(int(math.ceil(total / c.path_step_m)), 4)
         u = np.linspace(0.0, total, n + 1)
         in_h = u <= horizon
-        tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
         cands: list[Candidate] = []
-        for off in self.offsets():
+        for off in offsets:
             # cubic d(u) = d0 + slope0 u + a u^2 + b u^3 with d(H) = off, d'(H) = 0
             H = horizon
             rhs1 = off - d0_m - slope0 * H
@@ -130,17 +183,12 @@ class ManoeuvreGenerator:
             s = s0_m + u
             xy = frame.frenet_to_xy(s, d)
             heading, kappa = _path_geometry(xy)
-            cands.append(self._grade(off, s, d, xy, heading, kappa, in_h, tree, last_offset_m,
-                                     speed_mps))
-        feasible = [i for i, cand in enumerate(cands) if cand.feasible]
-        if feasible:
-            return cands, min(feasible, key=lambda i: cands[i].cost)
-        # none within the curvature limit: the least bent collision-free one (the car is slow
-        # there and steers at its limit), so a track at the car's limit does not stop it
-        clear = [i for i, cand in enumerate(cands) if cand.collision_free]
-        if clear:
-            return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
-        return cands, -1
+            cand = self._grade(float(off), s, d, xy, heading, kappa, in_h, tree, last_offset_m,
+                               speed_mps)
+            if math.isfinite(speed_cap_mps):
+                cand = replace(cand, speed_cap_mps=speed_cap_mps)
+            cands.append(cand)
+        return cands
 
     def _grade(
         self,
@@ -171,7 +219,8 @@ class ManoeuvreGenerator:
             dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
             gap = dist.reshape(len(xy), -1).min(axis=1) - self.circle_radius_m
             clearance = float(np.min(gap))
-            # full margin from ramp_m on; where the car is now only contact counts (it is there)
+            # the hard margin grows from contact where the car is now (it is there) to the
+            # full margin ahead; the preferred room is a cost, not a limit
             u = s - s[0]
             ramp = max(c.clearance_ramp_m, abs(speed_mps) * c.clearance_ramp_time_s, 1e-6)
             margin = c.cone_clearance_near_m + (c.cone_clearance_m - c.cone_clearance_near_m) \

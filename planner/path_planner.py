@@ -20,12 +20,14 @@ from common.errors import TrackError
 from common.messages import Baseframe, MapState, Plan, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
+from planner.racing_line import racing_line
 from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
     two_level_speed_mps,
 )
+from planner.track_model import TrackModel, track_from_cones
 from planner.waypoints import WaypointBook, waypoints_from_cones
 
 logger = logging.getLogger(__name__)
@@ -48,9 +50,11 @@ class PathPlanner:
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
         self.generator = ManoeuvreGenerator(c, config.car)
-        self.limits = SpeedLimits.from_car(config.car, c.friction_safety_factor, c.max_speed_mps)
+        self.limits = SpeedLimits.from_car(config.car, c.friction_safety_factor, c.max_speed_mps,
+                                           lateral_factor=c.lateral_safety_factor)
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""
+        self.track_model: TrackModel | None = None
         self._frame_msg: Baseframe | None = None
         self._speed_mps = np.zeros(0)
         self.autonomous = False
@@ -84,7 +88,8 @@ class PathPlanner:
         self.autonomous = True
         if len(self.book) >= 8:
             closed = self.book.close_loop(self.config.loop_close_distance_m,
-                                          self.config.min_loop_length_m)
+                                          self.config.min_loop_length_m,
+                                          self.config.loop_bridge_max_m)
             if not closed:
                 logger.info("exploration drive did not close a lap: an open baseframe")
             self._build_frame(self.book.points_xy_m, closed, "waypoints", map_state)
@@ -101,7 +106,12 @@ class PathPlanner:
             frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
                                     smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
             cones = map_state.cones
-            if c.centre_on_cones and len(cones) >= 8:
+            raced = None
+            if closed and len(cones) >= 8:
+                raced = self._race_frame(frame, map_state)
+            if raced is not None:
+                frame = raced
+            elif c.centre_on_cones and len(cones) >= 8:
                 frame = centre_on_cones(frame, cones.xy_m, cones.colour,
                                         max_shift_m=c.max_centring_shift_m,
                                         resample_m=c.baseframe_resample_m,
@@ -120,6 +130,32 @@ class PathPlanner:
                                  closed)
         logger.info("baseframe from %s: %.1f m, closed=%s", source, frame.length_m, closed)
         return True
+
+    def _race_frame(self, guide: SplineBaseframe, map_state: MapState) -> SplineBaseframe | None:
+        """The racing line inside the track the map's cones mark along ``guide`` (a lap), as a
+        baseframe; None (logged) when the cones do not make a track."""
+        c, car = self.config, self.car
+        cones = map_state.cones
+        try:
+            model = track_from_cones(cones.xy_m, cones.colour, guide.xy_m, True,
+                                     step_m=c.track_step_m, max_lateral_m=c.track_max_lateral_m,
+                                     nominal_width_m=c.nominal_track_width_m)
+            if c.racing_line:
+                line, _ = racing_line(model, half_width_m=car.width_m / 2.0,
+                                      front_m=car.length_m - car.rear_overhang_m,
+                                      clearance_m=c.cone_radius_m + c.racing_margin_m,
+                                      limits=self.limits)
+            else:
+                line = model.centre_xy_m
+            frame = SplineBaseframe(line, True, resample_m=c.baseframe_resample_m,
+                                    smoothing_m=c.racing_line_smoothing_m,
+                                    step_m=c.baseframe_step_m)
+        except (TrackError, ValueError) as exc:
+            self.rejects["track_model"] += 1
+            logger.warning("track model from the cone map failed (%s): the guide's frame", exc)
+            return None
+        self.track_model = model
+        return frame
 
     def _frame_from_cones(self, map_state: MapState) -> bool:
         c = self.config
@@ -235,7 +271,8 @@ class PathPlanner:
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
             self._last_chosen = None
-            logger.warning("no feasible manoeuvre at s=%.1f m: stopping", s0)
+            logger.warning("no feasible manoeuvre at s=%.1f m: stopping (rejected so far: %s)",
+                           s0, dict(self.generator.rejections))
             fallback = max(range(len(cands)), key=lambda i: cands[i].clearance_m)
             targets = self._targets(cands[fallback], now_s, stop=True)
         return Plan(
@@ -277,6 +314,7 @@ class PathPlanner:
         ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
         v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
                                                                       self.limits))
+        v_lim = np.minimum(v_lim, cand.speed_cap_mps)
         # a stop: brake (within the limits) to stand at the end of the candidate
         v_end = 0.0 if stop else float(v_lim[-1])
         # backward pass: every target can be reached with the (safety-scaled) brakes

@@ -31,11 +31,14 @@ class SpeedLimits:
 
     @classmethod
     def from_car(
-        cls, car: CarConfig, safety_factor: float = 1.0, max_speed_mps: float = math.inf
+        cls, car: CarConfig, safety_factor: float = 1.0, max_speed_mps: float = math.inf,
+        lateral_factor: float | None = None,
     ) -> SpeedLimits:
-        """The car's limits scaled by ``safety_factor`` (0..1), top speed capped."""
+        """The car's limits scaled by ``safety_factor`` (0..1; the lateral one by
+        ``lateral_factor`` when given), top speed capped."""
+        lateral = safety_factor if lateral_factor is None else lateral_factor
         return cls(
-            lateral_mps2=car.max_lateral_accel_mps2 * safety_factor,
+            lateral_mps2=car.max_lateral_accel_mps2 * lateral,
             drive_mps2=car.max_drive_accel_mps2 * safety_factor,
             brake_mps2=car.max_brake_decel_mps2 * safety_factor,
             top_speed_mps=min(car.top_speed_mps, max_speed_mps),

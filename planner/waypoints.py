@@ -70,11 +70,15 @@ class WaypointBook:
         self.closed = closed
         self.cursor = 0
 
-    def close_loop(self, close_distance_m: float = 4.0, min_length_m: float = 30.0) -> bool:
+    def close_loop(self, close_distance_m: float = 4.0, min_length_m: float = 30.0,
+                   bridge_max_m: float = 0.0) -> bool:
         """Cut the recorded drive to one lap if it came back to its start; True if it did.
 
         The lap ends at the waypoint nearest the first one after at least ``min_length_m`` of
-        driving (and past half the drive), if that is within ``close_distance_m``.
+        driving (and past half the drive), if that is within ``close_distance_m``. A drive
+        that stopped short of its start (the map's loop closed before the car got there) is a
+        lap too when its end is within ``bridge_max_m`` of the start and heads for it: the
+        periodic baseframe bridges the gap.
         """
         if self.closed:  # already one lap (set_points(..., closed=True))
             return True
@@ -85,6 +89,9 @@ class WaypointBook:
         dist0 = np.linalg.norm(pts - pts[0], axis=1)
         candidates = np.nonzero((travelled >= min_length_m) & (dist0 <= close_distance_m))[0]
         if len(candidates) == 0:
+            if travelled[-1] >= min_length_m and self._heads_for_start(pts, bridge_max_m):
+                self.set_points(pts, closed=True)
+                return True
             self.set_points(pts, closed=False)
             return False
         # first return to the start: the first run of candidates, its closest point
@@ -98,6 +105,22 @@ class WaypointBook:
         lap = pts[:end]  # the point at `end` is (about) the first one again
         self.set_points(lap, closed=True)
         return True
+
+    @staticmethod
+    def _heads_for_start(pts: FloatArray, bridge_max_m: float, max_turn_rad: float = 0.6
+                         ) -> bool:
+        """The drive ends within ``bridge_max_m`` of its start, heading for it, and the gap
+        joins the start in the start's direction."""
+        gap = pts[0] - pts[-1]
+        length = float(np.hypot(gap[0], gap[1]))
+        if length > bridge_max_m or length < 1e-6:
+            return False
+        end_dir = pts[-1] - pts[-2]
+        start_dir = pts[1] - pts[0]
+        gap_yaw = math.atan2(gap[1], gap[0])
+        turns = (math.remainder(gap_yaw - math.atan2(end_dir[1], end_dir[0]), 2.0 * math.pi),
+                 math.remainder(gap_yaw - math.atan2(start_dir[1], start_dir[0]), 2.0 * math.pi))
+        return all(abs(t) <= max_turn_rad for t in turns)
 
     def next_waypoints(self, x_m: float, y_m: float) -> FloatArray:
         """Drop the waypoints the car has reached (or passed: the next one is nearer) and serve

@@ -87,6 +87,8 @@ class LoopResult:
     cones_hit: set[int]
     off_track: int
     max_offset_m: float
+    max_frame_offset_m: float
+    """Largest distance (m) of the rear axle from the planner's baseframe (tracking error)."""
     final_state: AsState
     stop_reason: str
     lateral_peak_mps2: float
@@ -144,6 +146,7 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
     hits: set[int] = set()
     off = 0
     max_offset = 0.0
+    max_frame_offset = 0.0
     lap_times: list[float] = []
     last_lap, last_lap_t = 0, math.nan
     t = 0.0
@@ -168,7 +171,10 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
                 off += 1
             _, lateral, _ = track.locate(car.x_m, car.y_m)
             max_offset = max(max_offset, abs(lateral))
+            if planner.frame is not None and controller.state == AsState.DRIVING:
+                max_frame_offset = max(max_frame_offset, planner.frame.distance_m(car.x_m,
+                                                                                  car.y_m))
         if controller.state in (AsState.FINISHED, AsState.EMERGENCY) and car.v_mps < 0.01:
             break
-    return LoopResult(lap_times, hits, off, max_offset, controller.state, controller.stop_reason,
+    return LoopResult(lap_times, hits, off, max_offset, max_frame_offset, controller.state, controller.stop_reason,
                       car.lateral_peak_mps2, t)

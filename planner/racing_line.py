@@ -1,0 +1,209 @@
+"""The racing line: the path of least curvature inside the track (as TUM's
+``trajectory_planning_helpers.opt_min_curv``, solved here as bounded least squares).
+
+The line is the centreline moved along its normals by offsets alpha (N,), each bounded so that the
+car's body, with a margin, stays inside the boundaries. The sum of squared curvatures is
+minimised by Gauss-Newton steps: the curvature of the line at a sample depends only on the
+offsets of that sample and its two neighbours, so its Jacobian is tridiagonal (cyclic on a loop)
+and each step is a sparse bounded linear least-squares problem (``scipy.optimize.lsq_linear``).
+
+The margin follows the car's geometry: the rear axle (the vehicle origin) runs on the line; the
+inside of a bend needs half the car's width, the outside half the width plus what the front
+corner swings out beyond it on a bend of the centreline's radius.
+"""
+
+from __future__ import annotations
+
+import logging
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import minimize
+from scipy.sparse import coo_matrix
+
+from planner.baseframe import SplineBaseframe
+from planner.speed_profile import SpeedLimits, forward_backward_speed_mps, lap_time_s
+from planner.track_model import TrackModel, menger_curvature
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+LENGTH_WEIGHTS = (0.0, 1.0, 2.0, 4.0, 8.0, 16.0)
+"""Weights of the path length against the curvature tried for the racing line."""
+
+
+def body_margins_m(
+    kappa_1pm: FloatArray, half_width_m: float, front_m: float, clearance_m: float
+) -> tuple[FloatArray, FloatArray]:
+    """Distance (m) the line must keep from the left and right boundary (N,) each.
+
+    ``front_m``: rear axle to the front of the car; ``clearance_m``: cone radius plus a margin.
+    On a bend of radius R the front outer corner lies sqrt((R + w/2)^2 + f^2) from the centre
+    of the bend, i.e. w/2 + f^2 / (sqrt((R + w/2)^2 + f^2) + R + w/2) outside the line.
+    """
+    k = np.asarray(kappa_1pm, np.float64)
+    radius = 1.0 / np.maximum(np.abs(k), 1e-6)
+    outer_arm = radius + half_width_m
+    outer = half_width_m + front_m**2 / (np.sqrt(outer_arm**2 + front_m**2) + outer_arm)
+    outer = outer + clearance_m
+    inner = np.full_like(k, half_width_m + clearance_m)
+    left = np.where(k < 0.0, outer, inner)  # turning right: the left side is the outside
+    right = np.where(k > 0.0, outer, inner)
+    return left, right
+
+
+def _colours(n: int) -> NDArray[np.int64]:
+    """A colouring of a cyclic chain in which any three consecutive indices differ."""
+    colour = np.arange(n) % 3
+    tail = n % 3
+    if tail:
+        colour[n - tail:] = 3 + np.arange(tail)
+    return colour
+
+
+def _jacobian(centre: FloatArray, normals: FloatArray, alpha: FloatArray, closed: bool,
+              step: float = 1e-4) -> coo_matrix:
+    """d kappa_i / d alpha_j (N, N), non-zero for |i - j| <= 1 (cyclically when closed)."""
+    n = len(alpha)
+    base = menger_curvature(centre + alpha[:, None] * normals, closed)
+    colour = _colours(n)
+    rows: list[NDArray[np.int64]] = []
+    cols: list[NDArray[np.int64]] = []
+    vals: list[FloatArray] = []
+    idx = np.arange(n)
+    for c in range(int(colour.max()) + 1):
+        moved = colour == c
+        trial = alpha + step * moved
+        dk = (menger_curvature(centre + trial[:, None] * normals, closed) - base) / step
+        for shift in (-1, 0, 1):
+            j = idx + shift
+            if closed:
+                j = np.mod(j, n)
+            ok = (j >= 0) & (j < n)
+            ok[ok] &= moved[j[ok]]
+            rows.append(idx[ok])
+            cols.append(j[ok])
+            vals.append(dk[ok])
+    return coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n, n))
+
+
+def _length_gradient(line: FloatArray, normals: FloatArray, closed: bool) -> FloatArray:
+    """d (polyline length) / d alpha_j (N,) for a line moved along ``normals``."""
+    seg = np.roll(line, -1, axis=0) - line
+    unit = seg / np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-12)
+    if not closed:
+        unit[-1] = 0.0
+    before = np.roll(unit, 1, axis=0)  # segment j-1 -> j
+    if not closed:
+        before[0] = 0.0
+    return np.asarray(np.sum((before - unit) * normals, axis=1), np.float64)
+
+
+def _polyline_length(line: FloatArray, closed: bool) -> float:
+    pts = np.vstack([line, line[:1]]) if closed else line
+    return float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+
+
+def min_curvature_offsets(
+    centre_xy_m: FloatArray,
+    normals: FloatArray,
+    lower_m: FloatArray,
+    upper_m: FloatArray,
+    closed: bool = True,
+    *,
+    length_weight: float = 0.0,
+    max_iterations: int = 400,
+) -> FloatArray:
+    """Offsets alpha (N,) (m, along ``normals``) within [lower, upper] that minimise
+
+        sum(kappa^2) / sum(kappa_0^2) + length_weight * length / length_0
+
+    for the line ``centre + alpha normals`` (kappa_0, length_0: of the centreline): the least
+    curved line, with ``length_weight`` > 0 trading curvature for a shorter path. Where
+    lower > upper (the track is narrower than the car and margins) the offset is pinned to the
+    middle of the two. Solved with L-BFGS-B (bounds), the gradient from the tridiagonal
+    Jacobian of the curvature."""
+    lo = np.asarray(lower_m, np.float64).copy()
+    hi = np.asarray(upper_m, np.float64).copy()
+    pinch = lo > hi
+    mid = 0.5 * (lo + hi)
+    lo[pinch] = hi[pinch] = mid[pinch]
+    k0 = menger_curvature(centre_xy_m, closed)
+    k_scale = max(float(np.sum(k0**2)), 1e-9)
+    l_scale = max(_polyline_length(centre_xy_m, closed), 1e-9)
+
+    def cost(alpha: FloatArray) -> tuple[float, FloatArray]:
+        line = centre_xy_m + alpha[:, None] * normals
+        kappa = menger_curvature(line, closed)
+        jac = _jacobian(centre_xy_m, normals, alpha, closed).tocsr()
+        value = float(np.sum(kappa**2)) / k_scale
+        grad = np.asarray(jac.T @ (2.0 * kappa), np.float64) / k_scale
+        if length_weight > 0.0:
+            value += length_weight * _polyline_length(line, closed) / l_scale
+            grad += length_weight * _length_gradient(line, normals, closed) / l_scale
+        return value, grad
+
+    start = np.clip(np.zeros(len(lo)), lo, hi)
+    result = minimize(cost, start, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi,
+                      strict=True)), options={"maxiter": max_iterations, "ftol": 1e-10})
+    return np.clip(np.asarray(result.x, np.float64), lo, hi)
+
+
+def line_lap_time_s(line_xy_m: FloatArray, closed: bool, limits: SpeedLimits) -> float:
+    """Time (s) a point mass with ``limits`` needs along ``line_xy_m`` (N, 2) (a flying lap
+    when closed, from and to standstill when open)."""
+    frame = SplineBaseframe(line_xy_m, closed, resample_m=1.0, smoothing_m=1.0, step_m=0.5)
+    ds = np.full(len(frame.s_m) if closed else len(frame.s_m) - 1, frame.step_m)
+    v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed,
+                                   v_start_mps=None if closed else 0.0,
+                                   v_end_mps=None if closed else 0.0)
+    return lap_time_s(v, ds, closed)
+
+
+def racing_line(
+    track: TrackModel,
+    *,
+    half_width_m: float,
+    front_m: float,
+    clearance_m: float,
+    limits: SpeedLimits,
+    length_weights: tuple[float, ...] = LENGTH_WEIGHTS,
+) -> tuple[FloatArray, FloatArray]:
+    """The racing line (N, 2) inside ``track`` and its offsets from the centreline (N,).
+
+    For a car of half width ``half_width_m`` whose front is ``front_m`` ahead of the rear axle,
+    keeping ``clearance_m`` (cone radius plus margin) from the boundaries. Lines of least
+    curvature with each of ``length_weights`` are timed with ``limits`` (a point mass); the
+    fastest is the racing line (least curvature alone is slow where the track is one long bend:
+    the outside is longer)."""
+    normals = track.normals
+    kappa = track.curvature_1pm
+    left_margin, right_margin = body_margins_m(kappa, half_width_m, front_m, clearance_m)
+    lower, upper = track.free_interval(left_margin, right_margin)
+    narrow = int(np.sum(upper - lower < 1e-9))
+    if narrow:
+        logger.info("racing line: %d of %d samples narrower than the car and margins",
+                    narrow, len(track))
+    best: tuple[float, FloatArray, float] | None = None
+    for weight in length_weights:
+        alpha = min_curvature_offsets(track.centre_xy_m, normals, lower, upper, track.closed,
+                                      length_weight=weight)
+        line = track.centre_xy_m + alpha[:, None] * normals
+        if not np.all(np.isfinite(line)):
+            continue
+        t = line_lap_time_s(line, track.closed, limits)
+        logger.debug("racing line: length weight %.2f: %.3f s", weight, t)
+        if best is None or t < best[0]:
+            best = (t, alpha, weight)
+    if best is None:
+        logger.warning("racing line: no solution: the centreline")
+        return track.centre_xy_m.copy(), np.zeros(len(track))
+    t_best, alpha, weight = best
+    line = track.centre_xy_m + alpha[:, None] * normals
+    logger.info("racing line: %.2f s (centreline %.2f s), length weight %.2f, max |kappa| "
+                "%.3f -> %.3f 1/m", t_best, line_lap_time_s(track.centre_xy_m, track.closed,
+                                                              limits),
+                weight, float(np.max(np.abs(kappa))),
+                float(np.max(np.abs(menger_curvature(line, track.closed)))))
+    return line, alpha
