@@ -40,7 +40,8 @@ Rejects (``NmeaParser.rejects``, by reason): ``bad_checksum``, ``garbled`` (unfr
 unparsable text, bad numbers), ``too_long``, ``binary`` (a candidate cut by non-printable
 bytes), ``junk`` (runs of bytes outside any sentence), ``unsupported`` (a sentence type
 pynmea2 does not know), ``no_checksum`` (only with ``require_checksum``), ``no_fix``
-(a position sentence saying there is no fix, or with empty position fields).
+(a position sentence saying there is no fix, or with empty position fields), ``parser_error``
+(an unexpected exception inside the parser: logged with its traceback; a bug).
 ``NmeaParser.counts`` counts accepted sentences by type (``GGA``, ``RMC``, ...), ``sentences``
 and ``fixes``.
 """
@@ -352,9 +353,12 @@ class NmeaParser:
     def _sentence(self, timestamp_s: float, sentence: bytes, out: list[GpsFix]) -> None:
         try:
             self._process(timestamp_s, sentence, out)
-        except Exception as exc:  # a malformed field that slipped past the checks
+        except (ValueError, IndexError) as exc:  # a malformed or missing field
             self._reject("garbled", sentence)
             log.debug("NMEA sentence %r: %s", sentence[:100], exc)
+        except Exception:  # a bug: never kill the receiver for it, but say so loudly
+            self.rejects["parser_error"] += 1
+            log.exception("NMEA parser failed on %r (rejected; this is a bug)", sentence[:100])
 
     def _process(self, timestamp_s: float, sentence: bytes, out: list[GpsFix]) -> None:
         problem = check_sentence(sentence)
@@ -489,7 +493,8 @@ class NmeaParser:
         self._set_status(epoch, valid, lat, lon)
         if valid:
             if not epoch.emitted:
-                if "GGA" not in epoch.types and "GNS" not in epoch.types:
+                # the FAA mode gives the quality unless a valid GGA/GNS already did
+                if epoch.fix_quality == 0 or not ({"GGA", "GNS"} & epoch.types):
                     epoch.fix_quality = max(epoch.fix_quality, _FAA_QUALITY.get(mode, 1))
                 if math.isfinite(speed_kn):
                     epoch.speed_mps = speed_kn * KNOT_MPS

@@ -44,7 +44,7 @@ def test_no_numeric_option_is_unchecked() -> None:
 def test_the_walk_sees_the_subcommands() -> None:
     paths = {path for path, _ in _subparsers(main.build_parser())}
     for expected in [("sim",), ("replay",), ("drive",), ("record",), ("emulate",), ("render",),
-                     ("bench", "sim")]:
+                     ("bench", "sim"), ("bench", "fuzz")]:
         assert expected in paths
 
 
@@ -81,6 +81,9 @@ BAD = [
     (["bench", "slam", "--threads", "-1"], "--threads"),
     (["bench", "slam_loops", "--tracks", "0"], "--tracks"),
     (["bench", "trackdrive", "--laps", "-3"], "--laps"),
+    (["bench", "fuzz", "--inputs", "0"], "--inputs"),
+    (["bench", "fuzz", "--seed", "-1"], "--seed"),
+    (["bench", "fuzz", "--parsers", "nmea,bogus"], "--parsers"),
 ]
 
 
