@@ -144,7 +144,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     with _quiet_parsers(nets):
         try:
             for offset, name in enumerate(args.parsers):
-                mutator = Mutator(args.seed * 1000 + offset, SEEDS[name](data_dir))
+                mutator = Mutator(args.seed * 1000 + offset, SEEDS[name](data_dir),
+                                  targets[name].in_place_share)
                 if bar is not None:
                     bar.set_postfix_str(name)
                 result = _Result(name)

@@ -27,11 +27,14 @@ _NUMBER = re.compile(rb"[0-9][0-9.]*")
 class Mutator:
     """Seeded byte mutations (see the module docstring)."""
 
-    def __init__(self, seed: int, seeds: Sequence[bytes]) -> None:
+    def __init__(self, seed: int, seeds: Sequence[bytes], in_place_share: float = 0.0) -> None:
         if not seeds:
             raise ValueError("no seed inputs to mutate")
         self.rng = np.random.default_rng(seed)
         self.seeds = list(seeds)
+        self.in_place_share = in_place_share
+        """Share of inputs mutated in place only (bit flips, overwrites: the length is kept),
+        for formats whose length is checked first (a VLP-16 packet is 1206 bytes)."""
         self._operators: tuple[Callable[[bytearray], None], ...] = (
             self._flip_bits, self._flip_bits, self._overwrite, self._overwrite,
             self._insert, self._delete, self._duplicate, self._truncate, self._splice,
@@ -48,8 +51,11 @@ class Mutator:
         if rng.random() < 0.02:
             return rng.integers(0, 256, size=len(data), dtype=np.uint8).tobytes()
         out = bytearray(data)
+        operators = self._operators
+        if rng.random() < self.in_place_share:
+            operators = (self._flip_bits, self._overwrite)
         for _ in range(int(rng.integers(1, 5))):
-            self._operators[int(rng.integers(len(self._operators)))](out)
+            operators[int(rng.integers(len(operators)))](out)
         return bytes(out)
 
     def next(self) -> bytes:

@@ -30,6 +30,8 @@ class Target:
     clear_errors: tuple[type[BaseException], ...] = ()
     ordered = False
     """Mutate the seed inputs in their order (a stream), not picked at random."""
+    in_place_share = 0.0
+    """Share of inputs whose mutations keep the length (see :class:`Mutator`)."""
 
     def __init__(self) -> None:
         self.fed = 0
@@ -146,6 +148,7 @@ class LidarTarget(Target):
 
     name = "lidar"
     ordered = True
+    in_place_share = 0.7
 
     def make(self) -> Any:
         from sensors.lidar_parser import LidarParser
