@@ -12,7 +12,7 @@ also flushes the file to the operating system) once it spans ``chunk_duration_s`
 (0.4 s by default), has been open that long on the wall clock, or holds ``chunk_size_bytes``: a
 process killed with SIGKILL leaves a file that :mod:`recordings.reader` reads up to its last
 complete chunk, so at most ``chunk_duration_s`` (plus what was still queued) of what was
-received is lost. Shorter chunks compress a little worse (0.4 s: about 10 % larger files than
+received is lost. Shorter chunks compress a little worse (0.4 s: about 11 % larger files than
 1 s). The wall clock is used only for that flushing; it never changes what is written.
 
 Log times are nanoseconds on the run's clock: ``round(log_time_s * 1e9)``.
