@@ -21,6 +21,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from common.cli_types import positive_int
 from common.config import AppConfig
 from common.messages import ConeSize, GroundTruth, LidarPoints
 from sensors.cone_detector import ConeDetector
@@ -34,8 +35,9 @@ RADIUS_M = 15.0
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of the benchmark."""
-    parser.add_argument("--sweeps", type=int, default=10, help="simulated sweeps (default 10)")
-    parser.add_argument("--repeat", type=int, default=10, help="detections per sweep")
+    parser.add_argument("--sweeps", type=positive_int, default=10,
+                        help="simulated sweeps (default 10)")
+    parser.add_argument("--repeat", type=positive_int, default=10, help="detections per sweep")
 
 
 def _track() -> SimpleNamespace:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from common.cli_types import positive_float, positive_int
 from common.config import AppConfig
 from common.conventions import wrap_angle
 from mapper.mapper import Mapper
@@ -60,8 +61,9 @@ SETS = (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--runs", type=int, default=3, help="drives per set (seeds 0..runs-1)")
-    parser.add_argument("--length-m", type=float, default=100.0, help="lap length (m)")
+    parser.add_argument("--runs", type=positive_int, default=3,
+                        help="drives per set (seeds 0..runs-1)")
+    parser.add_argument("--length-m", type=positive_float, default=100.0, help="lap length (m)")
 
 
 def run_set(config: AppConfig, drive: Drive, sset: SensorSet) -> dict[str, float]:

@@ -22,6 +22,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from common.cli_types import positive_int, seed_list
 from common.config import AppConfig
 
 HELP = "pose NEES of SLAM and UKF, pooled over simulation seeds"
@@ -35,18 +36,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench nees``."""
     parser.add_argument("--tracks", default="default,fsg",
                         help="comma-separated: default, fsg, gen:N or a track file")
-    parser.add_argument("--seeds", default="1-6", help="simulation seeds, e.g. 1-6 or 1,3,5")
-    parser.add_argument("--laps", type=int, default=3,
+    parser.add_argument("--seeds", type=seed_list, default="1-6",
+                        help="simulation seeds, e.g. 1-6 or 1,3,5")
+    parser.add_argument("--laps", type=positive_int, default=3,
                         help="autonomous laps after the exploration lap (the UKF's phase)")
-    parser.add_argument("--jobs", type=int, default=2, help="simulations run at once")
-
-
-def _seeds(text: str) -> list[int]:
-    seeds: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        seeds.extend(range(int(lo), int(hi or lo) + 1))
-    return seeds
+    parser.add_argument("--jobs", type=positive_int, default=2, help="simulations run at once")
 
 
 def _sim(track: str, seed: int, laps: int, config_file: str | None) -> dict[str, Any]:
@@ -68,7 +62,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     del config  # each run reads its own (``--config`` is passed on)
     tracks = [str(FSG) if t.strip().lower() == "fsg" else t.strip()
               for t in args.tracks.split(",") if t.strip()]
-    seeds = _seeds(args.seeds)
+    seeds: list[int] = args.seeds
     config_file = getattr(args, "config", None)
     jobs = [(track, seed) for track in tracks for seed in seeds]
     with ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.cli_types import positive_int, positive_seconds, size_wxh
 from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
@@ -26,11 +27,11 @@ HELP = "renderer frames/s at 1280x720 with PNG writing; control-loop p99 with re
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--frames", type=int, default=120, help="frames to render")
-    parser.add_argument("--size", default="1280x720", help="WxH")
-    parser.add_argument("--loop-seconds", type=float, default=2.0,
+    parser.add_argument("--frames", type=positive_int, default=120, help="frames to render")
+    parser.add_argument("--size", type=size_wxh, default="1280x720", help="WxH")
+    parser.add_argument("--loop-seconds", type=positive_seconds, default=2.0,
                         help="length of each control-loop measurement (s)")
-    parser.add_argument("--rounds", type=int, default=5,
+    parser.add_argument("--rounds", type=positive_int, default=5,
                         help="interleaved rounds without and with rendering")
 
 
@@ -91,7 +92,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     from visualiser.offline import PngWriter
     from visualiser.visualiser import FrameRenderer, Visualiser, frame_file_name
 
-    width, height = (int(v) for v in args.size.lower().split("x"))
+    width, height = args.size
     renderer = FrameRenderer(width, height)
     from visualiser.frame_data import frame_from_messages
 

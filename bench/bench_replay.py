@@ -22,6 +22,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from common.cli_types import positive_int
 from common.config import AppConfig
 
 HELP = "replay --max of the sample recording: realtime factor and stage timings"
@@ -34,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="replay this recording instead of the sample")
     parser.add_argument("--profile", action="store_true",
                         help="also run under cProfile and print where the time goes")
-    parser.add_argument("--top", type=int, default=25, help="functions listed with --profile")
+    parser.add_argument("--top", type=positive_int, default=25,
+                        help="functions listed with --profile")
     parser.add_argument("--single-process", action="store_true",
                         help="run the front end in Main's process (no second process)")
 

@@ -12,6 +12,7 @@ import time
 from collections import defaultdict
 from typing import Any
 
+from common.cli_types import non_negative_int, positive_seconds
 from common.config import AppConfig
 
 HELP = "simulated seconds per wall second, default track, every sensor on"
@@ -19,9 +20,9 @@ HELP = "simulated seconds per wall second, default track, every sensor on"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench sim``."""
-    parser.add_argument("--duration", type=float, default=60.0, help="simulated seconds")
+    parser.add_argument("--duration", type=positive_seconds, default=60.0, help="simulated seconds")
     parser.add_argument("--track", default="default", help="track name or file")
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--seed", type=non_negative_int, default=1)
 
 
 class _Timed:

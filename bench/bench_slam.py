@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 
+from common.cli_types import non_negative_int, positive_int
 from common.config import AppConfig
 from common.messages import ConeDetection
 from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
@@ -31,11 +32,13 @@ HELP = "EKF SLAM sweep update: ours against the textbook EKF step"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench slam``."""
-    parser.add_argument("--landmarks", type=int, default=300, help="landmarks in the filter")
-    parser.add_argument("--cones", type=int, default=20, help="associated detections per sweep")
-    parser.add_argument("--repeats", type=int, default=30, help="timed repetitions")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--threads", type=int, default=1,
+    parser.add_argument("--landmarks", type=positive_int, default=300,
+                        help="landmarks in the filter")
+    parser.add_argument("--cones", type=positive_int, default=20,
+                        help="associated detections per sweep")
+    parser.add_argument("--repeats", type=positive_int, default=30, help="timed repetitions")
+    parser.add_argument("--seed", type=non_negative_int, default=0)
+    parser.add_argument("--threads", type=non_negative_int, default=1,
                         help="BLAS threads for both (0 leaves the library default)")
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from common.cli_types import non_negative_int, positive_int
 from common.config import AppConfig
 from mapper import slam_sim
 from mapper.slam_blas import limit_blas_threads
@@ -21,8 +22,9 @@ HELP = "EKF SLAM loop closure and map quality on generated tracks"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench slam_loops``."""
-    parser.add_argument("--tracks", type=int, default=20, help="number of generated tracks")
-    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--tracks", type=positive_int, default=20,
+                        help="number of generated tracks")
+    parser.add_argument("--first-seed", type=non_negative_int, default=0)
 
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:

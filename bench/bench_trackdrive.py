@@ -18,7 +18,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from common.cli_types import non_negative_int, positive_int
 from common.config import AppConfig
+from simulator.faults import fault_spec
 
 HELP = "closed-loop trackdrive on generated tracks: laps, cones hit, best lap / minimum"
 
@@ -27,11 +29,13 @@ FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench trackdrive``."""
-    parser.add_argument("--tracks", type=int, default=6, help="generated tracks gen:1..N")
-    parser.add_argument("--laps", type=int, default=10, help="autonomous laps per track")
+    parser.add_argument("--tracks", type=positive_int, default=6, help="generated tracks gen:1..N")
+    parser.add_argument("--laps", type=positive_int, default=10, help="autonomous laps per track")
     parser.add_argument("--fsg", action="store_true", help="also run FSG (shared data)")
-    parser.add_argument("--seed", type=int, default=None, help="simulation seed (default: config)")
-    parser.add_argument("--fault", action="append", default=[], metavar="KIND@T[:DURATION]",
+    parser.add_argument("--seed", type=non_negative_int, default=None,
+                        help="simulation seed (default: config)")
+    parser.add_argument("--fault", type=fault_spec, action="append", default=[],
+                        metavar="KIND@T[:DURATION]",
                         help="inject a fault on every track (repeatable)")
 
 

@@ -72,7 +72,6 @@ from numpy.typing import NDArray
 from scipy.linalg.blas import dtrsm, dtrsv
 from scipy.linalg.lapack import dpotrf, dpotrs
 from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
 
 from common.config import CarConfig
 from common.conventions import wrap_angle
@@ -86,6 +85,7 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
+from mapper.chi2 import chi2_ppf
 from mapper.config import MapperConfig
 from mapper.fusion import rear_slip_velocity
 from mapper.slam_blas import mirror_lower, syrk_lower_inplace
@@ -195,10 +195,10 @@ class EkfSlam:
         self.cfg = config.slam
         self.car = car
         c = self.cfg
-        self._gate = float(chi2.ppf(c.gate_probability, 2))
-        self._new_gate = float(chi2.ppf(c.new_landmark_probability, 2))
-        self._merge_gate = float(chi2.ppf(c.merge_gate_probability, 2))
-        self._gps_gate = float(chi2.ppf(c.gps_gate_probability, 2))
+        self._gate = chi2_ppf(c.gate_probability, 2)
+        self._new_gate = chi2_ppf(c.new_landmark_probability, 2)
+        self._merge_gate = chi2_ppf(c.merge_gate_probability, 2)
+        self._gps_gate = chi2_ppf(c.gps_gate_probability, 2)
         self._heading_seed = c.heading_mode == "seed"
         self._pd = POSE_DIM + (BIAS_DIM if c.imu_bias_states else 0)
         """Vehicle states before the landmarks: the pose (5) and, when estimated, the biases."""

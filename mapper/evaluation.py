@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
 
 from common.conventions import wrap_angles
 from common.messages import ConeMap
+from mapper.chi2 import chi2_ppf
 
 FloatArray = NDArray[np.float64]
 MATCH_GATE_M = 1.0
@@ -114,7 +114,7 @@ def nees(err: ArrayLike, cov: ArrayLike) -> FloatArray:
 def nees_band(dof: int, probability: float = 0.95) -> tuple[float, float]:
     """Two-sided chi-square band holding ``probability`` of a consistent filter's NEES."""
     tail = 0.5 * (1.0 - probability)
-    return float(chi2.ppf(tail, dof)), float(chi2.ppf(1.0 - tail, dof))
+    return chi2_ppf(tail, dof), chi2_ppf(1.0 - tail, dof)
 
 
 def nees_fraction_in_band(values: ArrayLike, dof: int, probability: float = 0.95) -> float:

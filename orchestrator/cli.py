@@ -7,7 +7,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from common.cli_types import (
+    int_in,
+    non_negative_int,
+    positive_float,
+    positive_int,
+    positive_seconds,
+)
 from common.config import AppConfig
+from simulator.faults import fault_spec
 
 
 def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
@@ -18,8 +26,10 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     )
     sim.add_argument("--track", help="'default', 'gen:SEED', or a track file (.csv EUFS, .yaml "
                      "FSSIM)")
-    sim.add_argument("--laps", type=int, help="autonomous laps (default: config sim.laps)")
-    sim.add_argument("--seed", type=int, help="random seed of the simulated world")
+    sim.add_argument("--laps", type=positive_int,
+                     help="autonomous laps, >= 1 (default: config sim.laps)")
+    sim.add_argument("--seed", type=non_negative_int,
+                     help="random seed of the simulated world (>= 0)")
     sim.add_argument("--mapper", choices=("slam", "smoother"), help="mapping backend")
     sim.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     render = sim.add_mutually_exclusive_group()
@@ -31,7 +41,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      help="do not write recording.mcap")
     sim.add_argument("--realtime", action="store_true",
                      help="pace the simulation to the wall clock")
-    sim.add_argument("--fault", action="append", default=[], metavar="KIND@T[:DURATION]",
+    sim.add_argument("--fault", type=fault_spec, action="append", default=[],
+                     metavar="KIND@T[:DURATION]",
                      help="inject a fault: estop, gps-dropout, lidar-dead, imu-nan, can-garbage "
                      "(repeatable)")
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -45,7 +56,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                         help="an .mcap recording, or 'sample' (one simulated exploration lap, "
                         "made on first use)")
     pace = replay.add_mutually_exclusive_group()
-    pace.add_argument("--rate", type=float, default=None,
+    pace.add_argument("--rate", type=positive_float, default=None,
                       help="replay rate on the recording's clock (1 = real time)")
     pace.add_argument("--max", action="store_true", help="as fast as possible (default)")
     replay.add_argument("--out", type=Path, help="folder for summary.json (and frames)")
@@ -60,12 +71,13 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
         "drive", parents=[common],
         help="drive the real car: live sensors, commands out on CAN, recording on",
     )
-    drive.add_argument("--laps", type=int, help="autonomous laps (default: config sim.laps)")
+    drive.add_argument("--laps", type=positive_int,
+                       help="autonomous laps, >= 1 (default: config sim.laps)")
     drive.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     drive.add_argument("--no-record", dest="record", action="store_false", default=True)
-    drive.add_argument("--seconds", type=float, help="stop after this long (s)")
+    drive.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
     drive.add_argument("--render", action="store_true", help="render frames of the map")
-    drive.add_argument("--rt-priority", type=int, default=None, metavar="N",
+    drive.add_argument("--rt-priority", type=int_in(0, 99), default=None, metavar="N",
                        help="SCHED_FIFO priority of the control loop (default 10; 0: none)")
     drive.set_defaults(func=_drive)
 
@@ -73,7 +85,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
         "record", parents=[common], help="record live sensors to an MCAP file, no control"
     )
     record.add_argument("--out", type=Path, required=True, help="the .mcap file to write")
-    record.add_argument("--seconds", type=float, help="stop after this long (s)")
+    record.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
     record.set_defaults(func=_record)
 
     emulate = subparsers.add_parser(
@@ -81,12 +93,13 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
         help="serve the simulated car over real transports (pty serial, slcan CAN, UDP) for drive",
     )
     emulate.add_argument("--track", default="default", help="track name or file")
-    emulate.add_argument("--seconds", type=float, help="stop after this long (s)")
+    emulate.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
     emulate.add_argument("--write-config", type=Path, metavar="F",
                          help="write a car config for `drive` pointing at the emulated ports")
     emulate.add_argument("--summary", type=Path, metavar="F", help="write the summary JSON here")
     emulate.add_argument("--workdir", type=Path, help="folder for the port links (default: temp)")
-    emulate.add_argument("--seed", type=int, help="random seed of the simulated world")
+    emulate.add_argument("--seed", type=non_negative_int,
+                         help="random seed of the simulated world (>= 0)")
     emulate.set_defaults(func=_emulate)
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from typing import Any
 
@@ -29,16 +30,18 @@ def _info_command(args: argparse.Namespace, config: AppConfig) -> int:
     except RecordingError as exc:
         print(f"info: {exc}", file=sys.stderr)
         return 1
+    code = 0
     if summary["message_count"] == 0 and summary["recovered"]:
         print(f"info: nothing readable in {args.path}: {summary['note']}", file=sys.stderr)
-        if args.json:
-            print(json.dumps(summary, indent=2, sort_keys=True))
-        return 1
-    if args.json:
-        print(json.dumps(summary, indent=2, sort_keys=True))
-    else:
-        print(format_table(summary))
-    return 0
+        if not args.json:
+            return 1
+        code = 1
+    text = json.dumps(summary, indent=2, sort_keys=True) if args.json else format_table(summary)
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:  # piped into `head`: stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return code
 
 
 def format_table(summary: dict[str, Any]) -> str:

@@ -622,5 +622,11 @@ def from_proto(proto: ProtoMessage) -> object:
     convert = _FROM_PROTO.get(type(proto))
     if convert is None:
         raise RecordingError(f"no message type for protobuf {proto.DESCRIPTOR.full_name}")
-    return convert(proto)
+    try:
+        return convert(proto)
+    except (ValueError, TypeError, IndexError, OverflowError) as exc:
+        # a field that cannot hold what the message type needs (a LidarPoints whose point
+        # values are not a multiple of 4, an enum value out of range, ...)
+        raise RecordingError(f"a {proto.DESCRIPTOR.full_name} that does not form a valid "
+                             f"message: {exc}") from exc
 

@@ -8,10 +8,12 @@ One writer thread converts with :mod:`recordings.codec`, serialises, and writes 
 When the queue is full the message is dropped, counted in :attr:`Recorder.dropped` and logged.
 
 Chunks are zstd-compressed with CRCs. The writer closes a chunk itself (``Writer.flush``, which
-also flushes the file) once it spans ``chunk_duration_s`` of log time, has been open that long on
-the wall clock, or holds ``chunk_size_bytes``: a process killed with SIGKILL leaves a file that
-:mod:`recordings.reader` reads up to its last complete chunk, about a second before the kill.
-The wall clock is used only for that flushing; it never changes what is written.
+also flushes the file to the operating system) once it spans ``chunk_duration_s`` of log time
+(0.4 s by default), has been open that long on the wall clock, or holds ``chunk_size_bytes``: a
+process killed with SIGKILL leaves a file that :mod:`recordings.reader` reads up to its last
+complete chunk, so at most ``chunk_duration_s`` (plus what was still queued) of what was
+received is lost. Shorter chunks compress a little worse (0.4 s: about 11 % larger files than
+1 s). The wall clock is used only for that flushing; it never changes what is written.
 
 Log times are nanoseconds on the run's clock: ``round(log_time_s * 1e9)``.
 """
@@ -24,7 +26,7 @@ import os
 import queue
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -79,6 +81,8 @@ class Recorder:
 
     ``blocking=False`` (on the car) never blocks the caller and drops what does not fit in the
     queue; ``blocking=True`` (simulation) waits for room instead, so nothing is lost.
+    ``wall_clock_s`` is the monotonic clock (s) that closes a chunk left open too long (tests
+    replace it); it is read by the writer thread only.
 
     Thread-safe: any thread may call the ``write*`` methods. After :meth:`close` they are ignored
     (counted in :attr:`dropped`).
@@ -91,12 +95,14 @@ class Recorder:
         car: CarConfig | None = None,
         metadata: Mapping[str, str] | None = None,
         blocking: bool = False,
+        wall_clock_s: Callable[[], float] = time.monotonic,
     ) -> None:
         self.path = Path(path)
         self.blocking = blocking
         """Wait for room in the queue instead of dropping (simulation, replay: completeness
         matters more than latency there, and a dropped message would break the replay)."""
         self.config = config if config is not None else RecordingConfig()
+        self._wall_clock_s = wall_clock_s
         self._car = car if car is not None else CarConfig()
         self.dropped = 0
         """Messages not recorded because the queue was full (or the recorder closed)."""
@@ -328,7 +334,7 @@ class Recorder:
         self.written += 1
         if self._chunk_messages == 0:
             self._chunk_min_ns = self._chunk_max_ns = log_ns
-            self._chunk_opened_wall_s = time.monotonic()
+            self._chunk_opened_wall_s = self._wall_clock_s()
         else:
             self._chunk_min_ns = min(self._chunk_min_ns, log_ns)
             self._chunk_max_ns = max(self._chunk_max_ns, log_ns)
@@ -342,7 +348,7 @@ class Recorder:
         if (
             self._chunk_bytes >= self.config.chunk_size_bytes
             or (self._chunk_max_ns - self._chunk_min_ns) * 1e-9 >= duration_s
-            or time.monotonic() - self._chunk_opened_wall_s >= duration_s
+            or self._wall_clock_s() - self._chunk_opened_wall_s >= duration_s
         ):
             self._close_chunk()
 

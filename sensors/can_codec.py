@@ -2,7 +2,8 @@
 
 The DBC is the single source of truth for ids, scaling and layout; this module only maps its
 signals to :mod:`common.messages` types. Decoding never raises on bad input: an id the DBC does
-not know is counted in ``rejects["unknown_id"]`` and ignored, a frame of the wrong length in
+not know (or a 29-bit id where the DBC has an 11-bit one) is counted in
+``rejects["unknown_id"]`` and ignored, a frame of the wrong length in
 ``rejects["bad_length"]``, anything cantools refuses in ``rejects["decode_error"]``, an
 actuator command with a wrong checksum in ``rejects["bad_checksum"]``.
 """
@@ -102,7 +103,8 @@ class CanCodec:
 
         ``decode_choices`` gives value-table entries by name instead of number."""
         message = self._by_id.get(frame.arbitration_id)
-        if message is None:
+        if message is None or bool(message.is_extended_frame) != bool(frame.is_extended_id):
+            # a 29-bit id is another frame than the 11-bit one with the same number
             self.rejects["unknown_id"] += 1
             return None
         if len(frame.data) != message.length:

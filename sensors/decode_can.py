@@ -51,10 +51,21 @@ def decode_log(path: str | Path, dbc_path: str | Path | None = None) -> Iterator
         counts[key] = 0
     try:
         reader = can.LogReader(str(p))
-    except ValueError as exc:
-        raise DecodeError(f"{p}: not a CAN log python-can reads ({exc})") from exc
+    except Exception as exc:  # noqa: BLE001 (python-can's readers raise anything on junk)
+        raise DecodeError(f"{p}: not a CAN log python-can reads "
+                          f"({type(exc).__name__}: {exc})") from exc
+    frames = iter(reader)
     try:
-        for msg in reader:
+        while True:
+            try:
+                msg = next(frames)
+            except StopIteration:
+                break
+            except Exception as exc:  # noqa: BLE001 (a corrupt log: python-can's error)
+                counts["errors"] += 1
+                logger.error("%s: stopped reading after %d frames: %s: %s", p,
+                             counts["frames"], type(exc).__name__, exc)
+                break
             counts["frames"] += 1
             if msg.is_error_frame:
                 counts["error_frames"] += 1
@@ -78,9 +89,6 @@ def decode_log(path: str | Path, dbc_path: str | Path | None = None) -> Iterator
                 "name": message.name,
                 "signals": {k: _plain(v) for k, v in signals.items()},
             }
-    except (ValueError, OSError, can.CanError) as exc:
-        counts["errors"] += 1
-        logger.error("%s: stopped reading after %d frames: %s", p, counts["frames"], exc)
     finally:
         stop = getattr(reader, "stop", None)
         if callable(stop):

@@ -6,7 +6,11 @@ UDP datagrams. :func:`decode_pcap` feeds the data packets (port 2368, 1206 bytes
 same :class:`~sensors.lidar_parser.LidarParser` the live receiver uses and yields one dict per
 sweep, then a final ``{"counts": {...}, "rejects": {...}}``.
 
-``points_out`` receives every return of every good data packet as an (N, 4) float64 array:
+Packets from another Velodyne model than the VLP-16 (:mod:`sensors.velodyne_model`: product id
+and packet timing) are refused: counted as ``wrong_model``, by model in ``refused_models``,
+logged in one line, never decoded.
+
+``points_out`` receives every return of every good VLP-16 data packet as an (N, 4) float64 array:
 x, y, z (m) in the SENSOR frame as velodyne-decoder gives it (x forward = azimuth 0, y left,
 z up, origin at the optical centre) and the reflectivity 0..255.
 """
@@ -111,7 +115,8 @@ def _udp_payload(ip: bytes) -> tuple[int, bytes] | None:
 
 def decode_pcap(path: str, points_out: str | None = None,
                 config: AppConfig | None = None) -> Iterator[dict[str, Any]]:
-    """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}``.
+    """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}`` (and
+    ``"refused_models"`` when another sensor's packets were refused).
 
     Each sweep dict has ``time`` (end of the sweep, pcap clock, s), ``sweep_start``,
     ``points`` (returns in the sweep) and ``cones`` (detections in the VEHICLE frame:
@@ -122,6 +127,9 @@ def decode_pcap(path: str, points_out: str | None = None,
     counts: Counter[str] = Counter()
     parser = LidarParser(config)
     all_points: list[np.ndarray] = []
+    if points_out is not None:
+        parser.on_packet = lambda _stamp, payload: all_points.append(
+            decode_packets([payload], checked=True).points)
     for stamp, port, payload in read_pcap_udp(path, counts):
         if port == POSITION_PORT or len(payload) == POSITION_PACKET_SIZE:
             counts["position_packets"] += 1
@@ -130,11 +138,6 @@ def decode_pcap(path: str, points_out: str | None = None,
             counts["other_udp"] += 1
             continue
         counts["data_packets"] += 1
-        if points_out is not None:
-            try:
-                all_points.append(decode_packets([payload]).points)
-            except DecodeError as exc:
-                log.debug("bad packet: %s", exc)
         for sweep in parser.feed(stamp, payload):
             yield _sweep_dict(sweep)
     for sweep in parser.flush():
@@ -146,8 +149,11 @@ def decode_pcap(path: str, points_out: str | None = None,
         arr = np.concatenate(all_points) if all_points else np.zeros((0, 4))
         np.save(points_out, arr)
         counts["points_written"] = int(arr.shape[0])
-    yield {"counts": dict(sorted(counts.items())),
-           "rejects": dict(sorted(parser.rejects.items()))}
+    final: dict[str, Any] = {"counts": dict(sorted(counts.items())),
+                             "rejects": dict(sorted(parser.rejects.items()))}
+    if parser.guard.refused:
+        final["refused_models"] = dict(sorted(parser.guard.refused.items()))
+    yield final
 
 
 def _sweep_dict(sweep: Any) -> dict[str, Any]:

@@ -1,20 +1,24 @@
-"""VLP-16 data packets to cone detections: sweep assembly and the cone detector.
+"""VLP-16 data packets to cone detections: model check, sweep assembly and the cone detector.
 
 The same object serves the live UDP receiver, the simulation loop and replay: feed it each
 datagram with its arrival time on the Clock and it returns a :class:`LidarCones` whenever a
-sweep completes. Bad datagrams are counted in ``rejects`` by reason and logged, never raised.
+sweep completes. Bad datagrams are counted in ``rejects`` by reason and logged, never raised;
+well-formed packets from another Velodyne model (:mod:`sensors.velodyne_model`) are refused and
+counted as ``wrong_model``.
 """
 
 from __future__ import annotations
 
 import logging
 from collections import Counter
+from collections.abc import Callable
 
 from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import LidarCones, LidarPoints
 from sensors.cone_detector import ConeDetector
-from sensors.velodyne import SweepAssembler, reject_reason
+from sensors.velodyne import SweepAssembler, check_packet, reject_reason
+from sensors.velodyne_model import ModelGuard
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +28,10 @@ class LidarParser:
 
     ``feed(timestamp_s, payload)``: ``timestamp_s`` is the datagram's arrival time (s), taken
     as :data:`sensors.velodyne.PACKET_DURATION_S` after its first firing. ``rejects`` counts
-    bad datagrams by reason (``bad_length``, ``bad_flag``, ``bad_azimuth``); ``counts`` counts
-    ``packets``, ``sweeps``, ``points`` and ``cones``. ``last_sweep`` keeps the last sweep's
+    bad datagrams by reason (``bad_length``, ``bad_flag``, ``bad_azimuth``, ``wrong_model``:
+    another sensor's packets, by model in ``guard.refused``); ``counts`` counts ``packets``,
+    ``sweeps``, ``points`` and ``cones``. ``on_packet(timestamp_s, payload)``, when set, sees
+    every packet that is decoded (a VLP-16's, in order). ``last_sweep`` keeps the last sweep's
     points (for drawing and tests): only those that can be part of a cone (the detector's
     :meth:`~sensors.cone_detector.ConeDetector.return_window`: the ground and the car's own
     body are left out while decoding), or every return with ``all_points``.
@@ -42,23 +48,48 @@ class LidarParser:
         self.rejects: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()
         self.last_sweep: LidarPoints | None = None
+        self.guard: ModelGuard[tuple[float, bytes]] = ModelGuard(self.source)
+        self.on_packet: Callable[[float, bytes], None] | None = None
 
     def feed(self, timestamp_s: float, payload: bytes) -> list[LidarCones]:
         """Take one datagram; return the cones of the sweeps it completes (usually none)."""
+        payload = bytes(payload)
         try:
-            sweeps = self.assembler.add(timestamp_s, bytes(payload))
+            check_packet(payload)
         except DecodeError as exc:
             reason = reject_reason(exc)
             self.rejects[reason] += 1
             if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
                 log.warning("lidar: rejected datagram (%s; %d so far)", exc, self.rejects[reason])
             return []
-        self.counts["packets"] += 1
-        return [self._detect(s) for s in sweeps]
+        return self._assemble(self._admit(lambda: self.guard.admit((timestamp_s, payload),
+                                                                   payload)))
 
     def flush(self) -> list[LidarCones]:
         """Detect cones in the partial sweep collected so far (end of a file or a stream)."""
-        return [self._detect(s) for s in self.assembler.flush()]
+        out = self._assemble(self._admit(self.guard.flush))
+        return out + [self._detect(s) for s in self.assembler.flush()]
+
+    def _admit(self, decide: Callable[[], list[tuple[float, bytes]]]
+               ) -> list[tuple[float, bytes]]:
+        """Run the model guard; count what it refused."""
+        refused = sum(self.guard.refused.values())
+        admitted = decide()
+        refused = sum(self.guard.refused.values()) - refused
+        if refused:
+            self.rejects["wrong_model"] += refused
+        return admitted
+
+    def _assemble(self, admitted: list[tuple[float, bytes]]) -> list[LidarCones]:
+        out: list[LidarCones] = []
+        for item in admitted:
+            timestamp_s, payload = item
+            if self.on_packet is not None:
+                self.on_packet(timestamp_s, payload)
+            sweeps = self.assembler.add(timestamp_s, payload)
+            self.counts["packets"] += 1
+            out.extend(self._detect(s) for s in sweeps)
+        return out
 
     def _detect(self, sweep: LidarPoints) -> LidarCones:
         self.last_sweep = sweep

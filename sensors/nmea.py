@@ -15,8 +15,14 @@ Two layers, usable apart:
 
 Sentences used (any talker: GP, GN, GL, GA, GB, ...): GGA (position, quality, satellites, HDOP,
 altitude above mean sea level), RMC (status, position, speed, course), GLL (position, status),
-GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course) and GSA (HDOP when no GGA).
-Others are counted by type and otherwise ignored.
+GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course) and GSA (HDOP when no GGA;
+its fix mode). Others are counted by type and otherwise ignored.
+
+Status. The epoch's fix is valid when its latest status-bearing sentence says so: GGA quality
+> 0 with satellites, RMC/GLL status ``A`` (FAA mode not ``N``), GNS mode, or a GSA fix mode
+of 2 or 3, which vouches for the epoch's latest position even when that position's own sentence
+said otherwise (as gpsd takes it: Garmin and Furuno receivers send a GGA counting 0 satellites,
+then a GSA listing the satellites used); GSA mode 1 means no fix.
 
 Epochs. Receivers send a burst of sentences per navigation epoch (e.g. RMC, VTG, GGA, GSA, GSV,
 GLL at 1-10 Hz). Like gpsd, the parser learns the "cycle ender" (the sentence type that last
@@ -34,7 +40,8 @@ Rejects (``NmeaParser.rejects``, by reason): ``bad_checksum``, ``garbled`` (unfr
 unparsable text, bad numbers), ``too_long``, ``binary`` (a candidate cut by non-printable
 bytes), ``junk`` (runs of bytes outside any sentence), ``unsupported`` (a sentence type
 pynmea2 does not know), ``no_checksum`` (only with ``require_checksum``), ``no_fix``
-(a position sentence saying there is no fix, or with empty position fields).
+(a position sentence saying there is no fix, or with empty position fields), ``parser_error``
+(an unexpected exception inside the parser: logged with its traceback; a bug).
 ``NmeaParser.counts`` counts accepted sentences by type (``GGA``, ``RMC``, ...), ``sentences``
 and ``fixes``.
 """
@@ -199,6 +206,21 @@ def _coord(value: str, hemisphere: str, degree_digits: int) -> float:
     return -result if hemisphere in ("S", "W") else result
 
 
+def _position(lat: str, lat_hemisphere: str, lon: str, lon_hemisphere: str, strict: bool
+              ) -> tuple[float, float]:
+    """Signed degrees of a sentence's position fields; NaN, NaN when they are empty, or when
+    they are malformed and not ``strict`` (a sentence saying it has no fix may carry anything
+    there); malformed and ``strict`` (the sentence claims a fix): ValueError."""
+    if not lat or not lon:
+        return math.nan, math.nan
+    try:
+        return _coord(lat, lat_hemisphere, 2), _coord(lon, lon_hemisphere, 3)
+    except ValueError:
+        if strict:
+            raise
+        return math.nan, math.nan
+
+
 def _time_of_day(value: str) -> float:
     """``hhmmss[.ss]`` to seconds since midnight; ValueError if malformed."""
     if len(value) < 6 or not value[:6].isdigit():
@@ -242,7 +264,13 @@ class _Epoch:
     speed_mps: float = math.nan
     course_deg: float = math.nan
     valid: bool = False
-    """What the epoch's latest status-bearing sentence (GGA, RMC, GLL, GNS) said."""
+    """What the epoch's latest status-bearing sentence (GGA, RMC, GLL, GNS, GSA) said."""
+    seen_lat_deg: float = math.nan
+    seen_lon_deg: float = math.nan
+    """The latest position of the epoch whatever its sentence's status (a GSA's fix mode may
+    vouch for it)."""
+    seen_quality: tuple[int, int, float, float] | None = None
+    """The latest GGA/GNS quality, satellites, HDOP and altitude, whatever their status."""
     types: set[str] = field(default_factory=set)
     last_type: str = ""
     emitted: bool = False
@@ -325,9 +353,12 @@ class NmeaParser:
     def _sentence(self, timestamp_s: float, sentence: bytes, out: list[GpsFix]) -> None:
         try:
             self._process(timestamp_s, sentence, out)
-        except Exception as exc:  # a malformed field that slipped past the checks
+        except (ValueError, IndexError) as exc:  # a malformed or missing field
             self._reject("garbled", sentence)
             log.debug("NMEA sentence %r: %s", sentence[:100], exc)
+        except Exception:  # a bug: never kill the receiver for it, but say so loudly
+            self.rejects["parser_error"] += 1
+            log.exception("NMEA parser failed on %r (rejected; this is a bug)", sentence[:100])
 
     def _process(self, timestamp_s: float, sentence: bytes, out: list[GpsFix]) -> None:
         problem = check_sentence(sentence)
@@ -401,10 +432,13 @@ class NmeaParser:
             self._emit(epoch, out)
 
     def _set_status(self, epoch: _Epoch, valid: bool, lat_deg: float, lon_deg: float) -> None:
-        """A status-bearing sentence's verdict; its position when valid."""
+        """A status-bearing sentence's verdict; its position when valid. A position sent with
+        a no-fix status is kept aside (``seen_*``) for a later GSA that reports a fix."""
         if epoch.emitted:
             return
         epoch.valid = valid
+        if math.isfinite(lat_deg) and math.isfinite(lon_deg):
+            epoch.seen_lat_deg, epoch.seen_lon_deg = lat_deg, lon_deg
         if valid:
             epoch.lat_deg, epoch.lon_deg = lat_deg, lon_deg
 
@@ -419,11 +453,9 @@ class NmeaParser:
         quality = _int(msg.data[5], 0)
         sats = _int(msg.data[6], -1)
         # gpsd: a GGA claiming a fix from zero satellites is no fix.
-        valid = quality > 0 and sats != 0 and msg.data[1] != "" and msg.data[3] != ""
-        lat = lon = math.nan
-        if valid:
-            lat = _coord(msg.data[1], msg.data[2], 2)
-            lon = _coord(msg.data[3], msg.data[4], 3)
+        claims = quality > 0 and sats != 0
+        lat, lon = _position(msg.data[1], msg.data[2], msg.data[3], msg.data[4], claims)
+        valid = claims and math.isfinite(lat)
         sats = max(sats, 0)
         hdop = _float(msg.data[7])
         alt = _float(msg.data[8]) if len(msg.data) > 8 else math.nan
@@ -437,6 +469,8 @@ class NmeaParser:
         the epoch (a position sentence without a fix is counted as ``no_fix``)."""
         epoch = self._epoch_for(timestamp_s, kind, utc, out)
         self._set_status(epoch, valid, lat, lon)
+        if not epoch.emitted:
+            epoch.seen_quality = quality_sats_hdop_alt
         if valid:
             if not epoch.emitted:
                 (epoch.fix_quality, epoch.satellites, epoch.hdop,
@@ -450,18 +484,17 @@ class NmeaParser:
         data = msg.data
         utc = self._utc(data[0])
         mode = data[11] if len(data) > 11 else ""
-        valid = data[1] == "A" and data[2] != "" and data[4] != "" and mode != "N"
-        lat = lon = math.nan
-        if valid:
-            lat = _coord(data[2], data[3], 2)
-            lon = _coord(data[4], data[5], 3)
+        claims = data[1] == "A" and mode != "N"
+        lat, lon = _position(data[2], data[3], data[4], data[5], claims)
+        valid = claims and math.isfinite(lat)
         speed_kn = _float(data[6])
         course = _float(data[7])
         epoch = self._epoch_for(timestamp_s, "RMC", utc, out)
         self._set_status(epoch, valid, lat, lon)
         if valid:
             if not epoch.emitted:
-                if "GGA" not in epoch.types and "GNS" not in epoch.types:
+                # the FAA mode gives the quality unless a valid GGA/GNS already did
+                if epoch.fix_quality == 0 or not ({"GGA", "GNS"} & epoch.types):
                     epoch.fix_quality = max(epoch.fix_quality, _FAA_QUALITY.get(mode, 1))
                 if math.isfinite(speed_kn):
                     epoch.speed_mps = speed_kn * KNOT_MPS
@@ -477,11 +510,9 @@ class NmeaParser:
         utc = self._utc(data[4]) if len(data) > 4 else math.nan
         status = data[5] if len(data) > 5 else ""
         mode = data[6] if len(data) > 6 else ""
-        valid = status == "A" and data[0] != "" and data[2] != "" and mode != "N"
-        lat = lon = math.nan
-        if valid:
-            lat = _coord(data[0], data[1], 2)
-            lon = _coord(data[2], data[3], 3)
+        claims = status == "A" and mode != "N"
+        lat, lon = _position(data[0], data[1], data[2], data[3], claims)
+        valid = claims and math.isfinite(lat)
         epoch = self._epoch_for(timestamp_s, "GLL", utc, out)
         self._set_status(epoch, valid, lat, lon)
         if valid:
@@ -497,11 +528,8 @@ class NmeaParser:
         utc = self._utc(data[0])
         modes = data[5] if len(data) > 5 else ""
         quality = max((_FAA_QUALITY.get(m, 0) for m in modes), default=0)
-        valid = quality > 0 and data[1] != "" and data[3] != ""
-        lat = lon = math.nan
-        if valid:
-            lat = _coord(data[1], data[2], 2)
-            lon = _coord(data[3], data[4], 3)
+        lat, lon = _position(data[1], data[2], data[3], data[4], quality > 0)
+        valid = quality > 0 and math.isfinite(lat)
         sats = _int(data[6], 0) if len(data) > 6 else 0
         hdop = _float(data[7]) if len(data) > 7 else math.nan
         alt = _float(data[8]) if len(data) > 8 else math.nan
@@ -529,7 +557,27 @@ class NmeaParser:
                 out: list[GpsFix]) -> None:
         data = msg.data
         hdop = _float(data[15]) if len(data) > 15 else math.nan
+        mode = data[1] if len(data) > 1 else ""
         epoch = self._epoch_for(timestamp_s, "GSA", math.nan, out)
-        if not epoch.emitted and math.isfinite(hdop) and not math.isfinite(epoch.gsa_hdop):
-            epoch.gsa_hdop = hdop
+        if not epoch.emitted:
+            if math.isfinite(hdop) and not math.isfinite(epoch.gsa_hdop):
+                epoch.gsa_hdop = hdop
+            if mode == "1":
+                self._set_status(epoch, False, math.nan, math.nan)
+            elif mode in ("2", "3") and not epoch.valid and math.isfinite(epoch.seen_lat_deg):
+                self._gsa_fix(epoch, sum(1 for prn in data[2:14] if prn))
         self._done(epoch, "GSA", out)
+
+    def _gsa_fix(self, epoch: _Epoch, used: int) -> None:
+        """A GSA reports a 2D/3D fix while the epoch's latest position sentence said no fix:
+        that position stands (as gpsd takes it: a GGA counting 0 satellites, then a GSA
+        listing the ``used`` ones, as Garmin and Furuno receivers send), with the GGA's
+        quality, HDOP and height when there was one."""
+        self._set_status(epoch, True, epoch.seen_lat_deg, epoch.seen_lon_deg)
+        quality, sats, hdop, alt = epoch.seen_quality or (0, 0, math.nan, math.nan)
+        epoch.fix_quality = max(epoch.fix_quality, quality, 1)
+        epoch.satellites = max(epoch.satellites, sats, used)
+        if math.isfinite(hdop):
+            epoch.hdop = hdop
+        if math.isfinite(alt):
+            epoch.altitude_m = alt

@@ -9,7 +9,9 @@ A data packet is the 1206-byte UDP payload the sensor sends to port 2368:
   second firing sequence, fired 55.296 us later.
 - a 4-byte timestamp (uint32 LE, microseconds past the hour, of the first firing of block 0),
 - 2 factory bytes: return mode (0x37 strongest, 0x38 last, 0x39 dual) and product id
-  (0x22 VLP-16; some units report 0x21).
+  (0x22 VLP-16; early VLP-16 firmware reports 0x21, the HDL-32E's id). This module decodes
+  whatever it is given as a VLP-16; :mod:`sensors.velodyne_model` decides beforehand, from these
+  bytes and the packet timing, which packets are a VLP-16's.
 
 Lasers fire every 2.304 us inside a 55.296 us firing sequence (VLP-16 user manual, 63-9243
 rev E, section 9). The azimuth of every return is interpolated from the block azimuth with the

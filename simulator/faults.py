@@ -12,6 +12,7 @@ Examples: ``estop@30``, ``gps-dropout@12:5``, ``lidar-dead@40:2.5``.
 
 from __future__ import annotations
 
+import argparse
 import math
 import re
 from collections.abc import Iterable
@@ -62,6 +63,16 @@ def parse_fault(text: str) -> Fault:
     if math.isnan(duration_s) or duration_s <= 0.0:
         raise ConfigError(f"fault {text!r}: DURATION must be > 0 s")
     return Fault(kind, start_s, duration_s)
+
+
+def fault_spec(text: str) -> str:
+    """``--fault KIND@T[:DURATION]`` as an argparse type: checked with :func:`parse_fault` when
+    the command line is read (one-line error), kept as the text."""
+    try:
+        parse_fault(text)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text
 
 
 def parse_faults(items: str | Iterable[str | Fault] | None) -> list[Fault]:

@@ -998,6 +998,8 @@ def load_track(name_or_path: str) -> Track:
         except ValueError:
             raise TrackError(f"track {name_or_path!r}: expected gen:SEED with an integer seed"
                              ) from None
+        if seed < 0:
+            raise TrackError(f"track {name_or_path!r}: the seed of gen:SEED must be >= 0")
         return generate_track(seed)
     path = Path(name_or_path)
     if not path.exists():

@@ -201,3 +201,48 @@ def test_info_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert _run_info(junk) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "nothing readable" in err
+
+
+def _on_disk_until(path: Path, tmp_path: Path, done: object, deadline_s: float = 30.0
+                   ) -> list[int]:
+    """Log times (ns) of the messages in a copy of ``path`` as it is on disk now (what a
+    SIGKILL would leave), read again until ``done(times)`` or the deadline (no timing is
+    asserted: the deadline only keeps a broken writer from hanging the test)."""
+    import shutil
+    import time
+
+    end = time.monotonic() + deadline_s
+    while True:
+        copy = tmp_path / "copy.mcap"
+        shutil.copyfile(path, copy)
+        with RecordingReader(copy) as reader:
+            times = [m.log_time_ns for m in reader.iter_messages()]
+        if done(times) or time.monotonic() > end:  # type: ignore[operator]
+            return times
+        time.sleep(0.02)
+
+
+def test_default_chunks_lose_at_most_half_a_second_of_log_time(tmp_path: Path) -> None:
+    """Issue 19.5: with the default configuration, once the writer has taken the messages the
+    file on disk (what SIGKILL leaves) holds all but at most the last 0.5 s of log time, by the
+    log-time rule alone (the wall clock is frozen); the open chunk closes on the wall clock."""
+    from recordings.config import RecordingConfig
+
+    assert RecordingConfig().chunk_duration_s <= 0.5
+    wall = [100.0]
+    path = tmp_path / "live.mcap"
+    recorder = Recorder(path, wall_clock_s=lambda: wall[0])
+    try:
+        last_ns = round(4.99 * 1e9)
+        for i in range(500):
+            recorder.write_raw(RawBytes(i * 0.01, "gps", b"$GP%05d\r\n" % i))
+        times = _on_disk_until(path, tmp_path, lambda t: bool(t) and t[-1] >= last_ns - 5e8)
+        assert times and times[-1] >= last_ns - 0.5e9, times[-1:] if times else "nothing on disk"
+        assert times == sorted(times) and len(times) == len(set(times))
+        assert recorder.written == 500
+        # Nothing new arrives: the open chunk closes once it has been open chunk_duration_s.
+        wall[0] += 1.0
+        times = _on_disk_until(path, tmp_path, lambda t: len(t) == 500)
+        assert len(times) == 500 and times[-1] == last_ns
+    finally:
+        recorder.close()

@@ -7,18 +7,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from common.cli_types import positive_float, size_wxh
 from common.config import AppConfig
 from common.errors import FsdError
-
-
-def _size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size must be WxH, e.g. 1280x720, got {text!r}") from None
-    if w < 16 or h < 16:
-        raise argparse.ArgumentTypeError(f"size {text!r} too small")
-    return w, h
 
 
 def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
@@ -27,9 +18,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                                    help="draw a recording's map states as PNG frames (and a movie)")
     parser.add_argument("recording", type=Path, help="an .mcap recording")
     parser.add_argument("--out", type=Path, required=True, help="folder for the frames")
-    parser.add_argument("--size", type=_size, default=None,
+    parser.add_argument("--size", type=size_wxh, default=None,
                         help="frame size WxH (default 1280x720)")
-    parser.add_argument("--fps", type=float, default=None,
+    parser.add_argument("--fps", type=positive_float, default=None,
                         help="frames per second of recording time (default: every map state)")
     parser.add_argument("--view", choices=("track", "follow"), default=None,
                         help="whole track, or follow the car")

@@ -1,0 +1,187 @@
+"""Which Velodyne sends these packets: the factory bytes and the packet timing, per packet.
+
+The decoder (:mod:`sensors.velodyne`) turns returns into points with the VLP-16's laser angles
+and firing times. Another sensor's packets have the same 1206-byte layout but other angles and
+timing, so decoding them as a VLP-16 would give plausible-looking but wrong points. This module
+decides, packet by packet, whether a (well-formed) data packet comes from a VLP-16.
+
+Evidence (Velodyne user manuals):
+
+- The factory bytes (the packet's last two): return mode (0x37 strongest, 0x38 last, 0x39
+  dual) and product id (:data:`PRODUCT_IDS`: 0x21 HDL-32E, 0x22 VLP-16, 0x24 Puck Hi-Res, 0x28
+  VLP-32C, 0x31 Velarray, 0xA1 VLS-128).
+- The packet timing: the difference between the device timestamps (us past the hour, bytes
+  1200..1203) of successive packets. A VLP-16 fills a packet in 12 blocks x 2 firing sequences
+  x 55.296 us = 1327.104 us (dual return: 663.552 us); an HDL-32E in 12 x 46.08 = 552.96 us
+  (dual 276.48), a VLP-32C in 12 x 55.296 = 663.552 us (dual 331.776). The Puck Hi-Res has the
+  VLP-16's timing and layout but other elevations (+-10 deg): only its id tells it apart.
+
+Rules (:class:`ModelGuard`):
+
+- an id other than 0x21 or 0x22, or an unknown return mode: refused (that model, or unknown);
+- an interval of 1..4 VLP-16 packet periods (within :data:`TIMING_TOLERANCE_US`) is VLP-16
+  timing; an interval matching another model's period (or its multiples) is that model's; any
+  other interval (the first packet, a long gap, a jump) tells nothing, and the stream's last
+  verdict stands;
+- 0x22 (VLP-16) is accepted unless the timing says another model;
+- 0x21 is the HDL-32E's id, but early VLP-16 firmware sends it too (the shared capture
+  ``velodyne_vlp16.pcap``: 0x21 with 1327 us between packets): it is accepted only when the
+  timing says VLP-16.
+- The first packet of a stream is held back until the next one tells its timing (one packet of
+  delay, once), so not even one packet of another model is decoded. Should the next one not
+  tell (a long gap, the end of the stream), the held packet goes by its id alone.
+
+A refused packet is counted by model (``ModelGuard.refused``) and logged as one warning line
+naming the model and why, the first time and every 1000th.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+from sensors.velodyne import (
+    PACKET_SIZE,
+    PRODUCT_VLP16,
+    RETURN_MODE_DUAL,
+    RETURN_MODE_LAST,
+    RETURN_MODE_STRONGEST,
+)
+
+log = logging.getLogger(__name__)
+
+PRODUCT_HDL32E = 0x21
+PRODUCT_IDS = {0x21: "HDL-32E", 0x22: "VLP-16", 0x24: "Puck Hi-Res", 0x28: "VLP-32C",
+               0x31: "Velarray", 0xA1: "VLS-128"}
+"""Velodyne product ids (the packet's last byte) and the sensor they name."""
+RETURN_MODES = (RETURN_MODE_STRONGEST, RETURN_MODE_LAST, RETURN_MODE_DUAL)
+
+VLP16 = "VLP-16"
+PACKET_PERIOD_US = {
+    VLP16: 1327.104,
+    "HDL-32E": 552.96,
+    "VLP-32C": 663.552,
+}
+"""Device time between two single-return data packets of each model (us); dual return halves
+it."""
+TIMING_TOLERANCE_US = 5.0
+"""How far an interval may be from a multiple of a period (us): device timestamps are whole
+microseconds of the sensor's own clock, so a VLP-16's read 1327 or 1328."""
+MAX_PERIODS = 4
+"""Intervals up to this many periods (a few lost packets) are classified; longer ones tell
+nothing (4 VLP-16 periods cannot be mistaken for a multiple of the HDL-32E's: 5 could)."""
+_HOUR_US = 3_600_000_000
+T = TypeVar("T")
+LOG_EVERY = 1000
+
+
+@dataclass(frozen=True, slots=True)
+class Verdict:
+    """What one packet is: ``model`` (``"VLP-16"`` when accepted) and ``why``."""
+
+    model: str
+    why: str
+
+    @property
+    def accepted(self) -> bool:
+        return self.model == VLP16
+
+
+def _period_us(model: str, mode: int) -> float:
+    period = PACKET_PERIOD_US[model]
+    return period / 2.0 if mode == RETURN_MODE_DUAL else period
+
+
+def timing_model(interval_us: int, mode: int) -> str | None:
+    """The model whose packet timing ``interval_us`` (device time between successive packets)
+    shows for return ``mode``, or None when it shows none (too long, zero, negative)."""
+    for model in PACKET_PERIOD_US:  # VLP-16 first: it wins a tie (a lost VLP-32C packet)
+        period = _period_us(model, mode)
+        if interval_us <= 0 or interval_us > (MAX_PERIODS + 0.5) * period:
+            continue
+        k = max(1, round(interval_us / period))
+        if abs(interval_us - k * period) <= TIMING_TOLERANCE_US:
+            return model
+    return None
+
+
+class ModelGuard(Generic[T]):
+    """Per packet stream: which packets are a VLP-16's (see the module docstring).
+
+    :meth:`admit` takes a well-formed data packet (``check_packet`` passed) with any item that
+    travels with it (its arrival time, ...) and returns the items now known to be VLP-16
+    packets, in arrival order; the rest are counted in :attr:`refused` by model.
+    """
+
+    def __init__(self, source: str = "lidar") -> None:
+        self.source = source
+        self.refused: Counter[str] = Counter()
+        """Packets refused, by model (``"HDL-32E"``, ``"unknown id 0x00"``, ...)."""
+        self.verdict: Verdict | None = None
+        """The stream's last verdict from the timing (None: none yet)."""
+        self._last_us: int | None = None
+        self._held: tuple[T, bytes] | None = None
+
+    def reset(self) -> None:
+        """Forget the stream (a new sensor, a reconnection); a held packet is dropped."""
+        self.verdict = None
+        self._last_us = None
+        self._held = None
+
+    def admit(self, item: T, payload: bytes) -> list[T]:
+        """The items of the packets known to be a VLP-16's after ``payload`` arrived."""
+        if len(payload) != PACKET_SIZE:
+            raise ValueError(f"not a data packet ({len(payload)} bytes)")
+        mode, product = payload[1204], payload[1205]
+        stamp_us = int.from_bytes(payload[1200:1204], "little")
+        interval = None if self._last_us is None else (stamp_us - self._last_us) % _HOUR_US
+        self._last_us = stamp_us
+        if mode not in RETURN_MODES:
+            self._refuse(Verdict(f"unknown (return mode byte 0x{mode:02X})",
+                                 "its factory bytes are not a VLP-16's"))
+            return self._release(None)
+        if product not in (PRODUCT_VLP16, PRODUCT_HDL32E):
+            name = PRODUCT_IDS.get(product, f"unknown (product id 0x{product:02X})")
+            self._refuse(Verdict(name, f"its product id is 0x{product:02X}"))
+            return self._release(None)
+        timed = timing_model(interval, mode) if interval is not None else None
+        if timed is not None:
+            self.verdict = Verdict(timed, f"product id 0x{product:02X} and {interval} us "
+                                          "between packets")
+        out = self._release(self.verdict)
+        verdict = self.verdict
+        if verdict is None:
+            self._held = (item, payload)  # no timing yet: wait for the next packet
+            return out
+        if verdict.accepted:
+            return [*out, item]
+        self._refuse(verdict)
+        return out
+
+    def flush(self) -> list[T]:
+        """End of the stream: the held packet, decided by the stream's verdict or its id."""
+        return self._release(self.verdict)
+
+    def _release(self, verdict: Verdict | None) -> list[T]:
+        """Decide the held packet with ``verdict``; None (its timing was never told): by its id,
+        a VLP-16's accepted, an HDL-32E's refused."""
+        held, self._held = self._held, None
+        if held is None:
+            return []
+        if verdict is None and held[1][1205] == PRODUCT_VLP16:
+            return [held[0]]
+        if verdict is not None and verdict.accepted:
+            return [held[0]]
+        self._refuse(verdict or Verdict(
+            "HDL-32E", "its product id is 0x21 and its packet timing could not be measured"))
+        return []
+
+    def _refuse(self, verdict: Verdict) -> None:
+        self.refused[verdict.model] += 1
+        n = self.refused[verdict.model]
+        if n == 1 or n % LOG_EVERY == 0:
+            log.warning("%s: refusing packets from a Velodyne %s (%s): only a VLP-16 is "
+                        "decoded, another sensor's data is never turned into points with VLP-16 "
+                        "angles (%d refused so far)", self.source, verdict.model, verdict.why, n)
