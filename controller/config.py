@@ -60,18 +60,21 @@ class ControllerConfig:
     steering_law: Literal["preview", "pure_pursuit", "stanley", "heading_p"] = "preview"
     lookahead_min_m: float = 3.0
     lookahead_max_m: float = 12.0
-    lookahead_time_s: float = 0.45
+    lookahead_time_s: float = 0.6
     lookahead_base_m: float = 2.0
-    preview_time_s: float = 0.1
+    preview_time_s: float = 0.2
     """Preview law: the path's curvature is read this far ahead (the steering's lag)."""
     preview_damping: float = 0.9
     heading_kp: float = 0.6
     stanley_k: float = 1.5
     stanley_soft_mps: float = 1.0
-    understeer_gradient_rad_per_mps2: float = 0.0028
-    """Extra steering per lateral acceleration (rad per m/s^2) for a car that understeers:
-    the command is atan(L kappa) + K v^2 kappa. 0.0028 fits the simulated default car's
-    steady-state yaw response (and is typical of a small formula car)."""
+    understeer_accel_mps2: tuple[float, ...] = (0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 11.0, 12.0)
+    understeer_steer_rad: tuple[float, ...] = (0.0, 0.0075, 0.015, 0.022, 0.034, 0.05, 0.065,
+                                               0.09)
+    """The car's steady-state understeer: the steering (rad) beyond the kinematic atan(L kappa)
+    that a lateral acceleration (m/s^2) needs, from a constant-radius cornering test
+    (``python main.py bench understeer`` measures it on the simulated car). The command is
+    atan(L kappa) + table(v^2 |kappa|), interpolated, held beyond the last point."""
     steer_along_course: bool = True
     """Steer relative to the direction of travel (yaw + sideslip atan(vy/vx)) rather than yaw."""
     max_steer_rate_radps: float = 3.0

@@ -11,6 +11,8 @@ from __future__ import annotations
 import logging
 import math
 
+import numpy as np
+
 from common.config import AppConfig, CarConfig
 from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate, RemoteStop
 from controller.config import ControllerConfig
@@ -144,7 +146,10 @@ class Controller:
             if math.isfinite(steer_target):
                 # understeer: more steering per curvature as the lateral acceleration grows
                 kappa = math.tan(steer_target) / self.car.wheelbase_m
-                steer_target += cfg.understeer_gradient_rad_per_mps2 * speed * speed * kappa
+                lateral = speed * speed * kappa
+                steer_target += math.copysign(
+                    float(np.interp(abs(lateral), cfg.understeer_accel_mps2,
+                                    cfg.understeer_steer_rad)), lateral)
             else:
                 steer_target = None
         throttle, brake = 0.0, 0.0

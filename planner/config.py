@@ -52,7 +52,7 @@ class PlannerConfig:
     """Cones farther than this from the guide path belong to no boundary."""
     cone_radius_m: float = 0.15
     """Base radius of the largest cone (285 mm base): contact is a car body this close."""
-    racing_margin_m: float = 0.3
+    racing_margin_m: float = 0.4
     """Room the racing line leaves between the car's body and a cone's base: tracking plus
     localisation error."""
     racing_line_smoothing_m: float = 1.0
@@ -102,6 +102,11 @@ class PlannerConfig:
     lateral_safety_factor: float = 0.6
     """Fraction of the car's lateral limit the profile plans with: the tyres' response flattens
     towards the limit, and the steering needs room left to correct the car."""
+    steer_rate_fraction: float = 0.5
+    """Fraction of the car's steering rate the profile lets the path's curvature changes use
+    (the rest corrects the car)."""
+    understeer_rad_per_mps2: float = 0.004
+    """The car's understeer (extra steering per lateral acceleration) for that limit."""
     max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0

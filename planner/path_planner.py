@@ -25,9 +25,10 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
+    steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
-from planner.track_model import TrackModel, track_from_cones
+from planner.track_model import TrackModel, self_intersects, track_from_cones
 from planner.waypoints import WaypointBook, waypoints_from_cones
 
 logger = logging.getLogger(__name__)
@@ -107,7 +108,7 @@ class PathPlanner:
                                     smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
             cones = map_state.cones
             raced = None
-            if closed and len(cones) >= 8:
+            if closed and len(cones) >= 8 and not self_intersects(frame.xy_m, True):
                 raced = self._race_frame(frame, map_state)
             if raced is not None:
                 frame = raced
@@ -179,12 +180,15 @@ class PathPlanner:
     def _profile(self, frame: SplineBaseframe) -> FloatArray:
         c = self.config
         ds = np.full(len(frame.s_m) if frame.closed else len(frame.s_m) - 1, frame.step_m)
-        extra = None
+        extra = steering_rate_speed_limit_mps(
+            frame.curvature_1pm, frame.step_m, self.car.wheelbase_m,
+            c.steer_rate_fraction * self.car.max_steer_rate_radps,
+            c.understeer_rad_per_mps2, frame.closed)
         if c.speed_mode == "two_level":
-            extra = two_level_speed_mps(frame.s_m, frame.heading_rad, frame.closed,
-                                        frame.length_m, c.two_level_fast_mps,
-                                        c.two_level_slow_mps, c.two_level_turn_rad,
-                                        c.two_level_preview_m)
+            extra = np.minimum(extra, two_level_speed_mps(
+                frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
+                c.two_level_fast_mps, c.two_level_slow_mps, c.two_level_turn_rad,
+                c.two_level_preview_m))
         return forward_backward_speed_mps(frame.curvature_1pm, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)

@@ -53,6 +53,39 @@ def curvature_speed_limit_mps(kappa_1pm: ArrayLike, limits: SpeedLimits) -> Floa
     return np.minimum(v, limits.top_speed_mps)
 
 
+def steering_rate_speed_limit_mps(
+    kappa_1pm: ArrayLike,
+    ds_m: float,
+    wheelbase_m: float,
+    max_steer_rate_radps: float,
+    understeer_rad_per_mps2: float = 0.0,
+    closed: bool = True,
+) -> FloatArray:
+    """Highest speed (M,) (m/s) at which the steering can follow the curvature's change along a
+    path sampled every ``ds_m``: the steering needed is about L kappa + K v^2 kappa, so it turns
+    at v |dkappa/ds| (L + K v^2), which must stay within ``max_steer_rate_radps``."""
+    k = np.asarray(kappa_1pm, np.float64)
+    if len(k) < 3:
+        return np.full(len(k), np.inf)
+    mode = "wrap" if closed else "nearest"
+    from scipy.ndimage import uniform_filter1d  # local: only the profile needs it
+
+    dk = np.abs(np.gradient(uniform_filter1d(k, 5, mode=mode), ds_m))
+    if closed:
+        dk[0] = abs(float(k[1] - k[-1])) / (2.0 * ds_m)
+        dk[-1] = abs(float(k[0] - k[-2])) / (2.0 * ds_m)
+    # v |dk| (L + K v^2) grows with v: bisection for where it meets the rate
+    lo = np.zeros(len(k))
+    hi = np.minimum(max_steer_rate_radps / np.maximum(dk * wheelbase_m, 1e-12), 1e3)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        fast = mid * dk * (wheelbase_m + understeer_rad_per_mps2 * mid * mid) \
+            > max_steer_rate_radps
+        hi = np.where(fast, mid, hi)
+        lo = np.where(fast, lo, mid)
+    return np.asarray(lo, np.float64)
+
+
 def _long_accel_available(v: float, kappa: float, a_lon: float, a_lat: float) -> float:
     """Longitudinal acceleration the friction circle leaves at speed v on curvature kappa."""
     usage = v * v * abs(kappa) / a_lat

@@ -121,6 +121,36 @@ def menger_curvature(xy_m: ArrayLike, closed: bool) -> FloatArray:
     return kappa
 
 
+def self_intersects(xy_m: ArrayLike, closed: bool, step_m: float = 2.0) -> bool:
+    """Whether a polyline (N, 2) crosses itself (a figure of eight), tested on segments about
+    ``step_m`` long (neighbouring segments excepted)."""
+    pts = np.asarray(xy_m, np.float64).reshape(-1, 2)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    keep = np.r_[0, np.nonzero(np.cumsum(seg) // step_m != np.r_[0, np.cumsum(seg)[:-1]]
+                                // step_m)[0] + 1]
+    p = pts[np.unique(keep)]
+    if closed:
+        p = np.vstack([p, p[:1]])
+    a, b = p[:-1], p[1:]
+    n = len(a)
+    if n < 4:
+        return False
+
+    def orient(o: FloatArray, u: FloatArray, v: FloatArray) -> FloatArray:
+        return (u[..., 0] - o[..., 0]) * (v[..., 1] - o[..., 1]) - \
+            (u[..., 1] - o[..., 1]) * (v[..., 0] - o[..., 0])
+
+    ai, bi = a[:, None, :], b[:, None, :]
+    aj, bj = a[None, :, :], b[None, :, :]
+    cross = ((orient(ai, bi, aj) * orient(ai, bi, bj) < 0.0)
+             & (orient(aj, bj, ai) * orient(aj, bj, bi) < 0.0))
+    i, j = np.triu_indices(n, k=2)
+    gap = j - i
+    if closed:
+        gap = np.minimum(gap, n - gap)
+    return bool(np.any(cross[i, j] & (gap >= 2)))
+
+
 def _room(
     centre: FloatArray, normals: FloatArray, left: FloatArray, right: FloatArray
 ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:

@@ -88,6 +88,8 @@ class LoopResult:
     off_track: int
     max_offset_m: float
     max_frame_offset_m: float
+    max_plan_error_m: float
+    """Largest cross-track error (m) of the rear axle from the manoeuvre being followed."""
     """Largest distance (m) of the rear axle from the planner's baseframe (tracking error)."""
     final_state: AsState
     stop_reason: str
@@ -147,6 +149,7 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
     off = 0
     max_offset = 0.0
     max_frame_offset = 0.0
+    max_plan_error = 0.0
     lap_times: list[float] = []
     last_lap, last_lap_t = 0, math.nan
     t = 0.0
@@ -171,10 +174,14 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
                 off += 1
             _, lateral, _ = track.locate(car.x_m, car.y_m)
             max_offset = max(max_offset, abs(lateral))
-            if planner.frame is not None and controller.state == AsState.DRIVING:
+            path = controller._path
+            if path is not None and controller.state == AsState.DRIVING and t > 2.0:
+                max_plan_error = max(max_plan_error, abs(path.nearest(car.x_m, car.y_m)[1]))
+            if planner.frame is not None and controller.state == AsState.DRIVING and t > 2.0:
                 max_frame_offset = max(max_frame_offset, planner.frame.distance_m(car.x_m,
                                                                                   car.y_m))
         if controller.state in (AsState.FINISHED, AsState.EMERGENCY) and car.v_mps < 0.01:
             break
-    return LoopResult(lap_times, hits, off, max_offset, max_frame_offset, controller.state, controller.stop_reason,
+    return LoopResult(lap_times, hits, off, max_offset, max_frame_offset, max_plan_error,
+                      controller.state, controller.stop_reason,
                       car.lateral_peak_mps2, t)
