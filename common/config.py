@@ -52,7 +52,9 @@ class CarConfig:
     max_lateral_accel_mps2: float = 1.5 * 9.81
     max_drive_accel_mps2: float = 8.0
     max_brake_decel_mps2: float = 12.0
-    max_steer_rad: float = 0.4
+    max_steer_rad: float = 0.52
+    """Road-wheel steering limit: 30 degrees turn the rear axle on 2.66 m, which takes the
+    rules' tightest hairpin (9 m outer diameter) with the front corner 0.2 m inside it."""
     max_steer_rate_radps: float = 1.5
     steer_lag_s: float = 0.05
     top_speed_mps: float = 25.0

@@ -78,7 +78,7 @@ class PlannerConfig:
     """The margin grows from the near to the full value over this distance along a candidate
     (or over the distance driven in ``clearance_ramp_time_s``, whichever is longer)."""
     clearance_ramp_time_s: float = 0.6
-    curvature_limit_fraction: float = 0.9
+    curvature_limit_fraction: float = 0.95
     """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
     weight_curvature: float = 0.2
     """The baseframe is the racing line: a candidate's own curvature counts little."""

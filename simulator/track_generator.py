@@ -44,7 +44,7 @@ STRAIGHT_CURVATURE_1PM = 1.0 / 50.0
 START_OFFSET_M = 8.0
 """The car's rear axle is staged this far before the start line."""
 MIN_CENTRE_RADIUS_M = 5.0
-"""The generator's tightest centreline radius (the default car turns on 3.6 m at the rear axle;
+"""The generator's tightest centreline radius (the default car turns on 2.7 m at the rear axle;
 the hairpin outer diameter is then at least 2 * (5 + 1.75) = 13.5 m)."""
 
 

@@ -20,6 +20,8 @@ FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_
 @pytest.mark.parametrize("dynamic", [False, True], ids=["kinematic", "vehicle_model"])
 def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time(dynamic: bool) -> None:
     config = AppConfig()
+    if not dynamic:
+        kinematic_controller(config)
     track = load_track(str(FSG))
     result = run_closed_loop(config, track, laps=2, max_time_s=90.0, dynamic=dynamic)
     assert result.cones_hit == set()
@@ -31,8 +33,16 @@ def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time(dynamic: bool) -> None:
     assert min(result.lap_times_s) <= 1.25 * t_min
 
 
+def kinematic_controller(config: AppConfig) -> None:
+    """The controller set for the kinematic bicycle: it does not understeer and it answers the
+    steering at once (no yaw lag to preview beyond the actuator's)."""
+    config.controller.understeer_steer_rad = (0.0,) * len(config.controller.understeer_accel_mps2)
+    config.controller.preview_time_s = 0.1
+
+
 def test_unknown_track_from_the_cone_map_default() -> None:
     config = AppConfig()
+    kinematic_controller(config)
     track = load_track("default")
     result = run_closed_loop(config, track, laps=1, max_time_s=60.0)
     assert result.cones_hit == set()
