@@ -20,7 +20,8 @@ from controller.pid import PID, LongitudinalController, RateLimiter, clip
 from controller.safety import SafetyStatus, SafetySupervisor, StopKind
 from controller.steering import (
     CurvaturePreview,
-    HeadingP,     Lookahead,
+    HeadingP,
+    Lookahead,
     PathRef,
     PurePursuit,
     Stanley,

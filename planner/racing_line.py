@@ -15,6 +15,7 @@ corner swings out beyond it on a bend of the centreline's radius.
 from __future__ import annotations
 
 import logging
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize

@@ -85,12 +85,17 @@ class TrackModel:
         offsets, inside, to_left, to_right = _room(self.centre_xy_m, self.normals,
                                                    self.left_boundary_xy_m,
                                                    self.right_boundary_xy_m)
-        ok = inside & (to_left >= lm[:, None]) & (to_right >= rm[:, None])
+        # this stretch of track only: the run of inside points through the centreline (a
+        # normal can reach a neighbouring stretch of the lap beyond the boundary)
+        in_lo, in_hi = _run_nearest_zero(inside, offsets)
+        k = np.arange(len(offsets))[None, :]
+        own = (k >= in_lo[:, None]) & (k <= in_hi[:, None]) & inside
+        ok = own & (to_left >= lm[:, None]) & (to_right >= rm[:, None])
         lo_idx, hi_idx = _run_nearest_zero(ok, offsets)
         lo, hi = offsets[lo_idx], offsets[hi_idx]
         none = ~ok.any(axis=1)
         if none.any():
-            slack = np.where(inside, np.minimum(to_left - lm[:, None], to_right - rm[:, None]),
+            slack = np.where(own, np.minimum(to_left - lm[:, None], to_right - rm[:, None]),
                              -np.inf)
             best = offsets[np.argmax(slack[none], axis=1)]
             lo[none] = hi[none] = best
@@ -271,7 +276,10 @@ def track_from_cones(
         centre, normals = frame.xy_m, _normals(frame.xy_m, closed)
         offsets, inside, to_left, to_right = _room(centre, normals, left_dense, right_dense)
         # the middle: the offset inside the track equally far from both boundaries
-        imbalance = np.where(inside, np.abs(to_left - to_right), np.inf)
+        in_lo, in_hi = _run_nearest_zero(inside, offsets)
+        k = np.arange(len(offsets))[None, :]
+        own = (k >= in_lo[:, None]) & (k <= in_hi[:, None]) & inside
+        imbalance = np.where(own, np.abs(to_left - to_right), np.inf)
         middle = offsets[np.argmin(imbalance, axis=1)]
         middle[~inside.any(axis=1)] = 0.0
         frame = SplineBaseframe(centre + middle[:, None] * normals, closed, resample_m=step_m,

@@ -984,7 +984,8 @@ def parse_fssim_yaml(path: Path, car_front_to_origin_m: float = FRONT_WING_TO_OR
 
 
 def load_track(name_or_path: str) -> Track:
-    """A track by name: ``"default"``, ``"gen:SEED"`` (a generated trackdrive), or a path to an
+    """A track by name: ``"default"``, ``"gen:SEED"`` (a generated trackdrive), ``"hard:NAME"``
+    (:mod:`simulator.hard_tracks`), or a path to an
     EUFS ``.csv`` or AMZ FSSIM ``.yaml`` file. Raises :class:`TrackError` with a clear message."""
     if name_or_path == "default":
         from simulator.track_generator import default_track
@@ -1001,6 +1002,10 @@ def load_track(name_or_path: str) -> Track:
         if seed < 0:
             raise TrackError(f"track {name_or_path!r}: the seed of gen:SEED must be >= 0")
         return generate_track(seed)
+    if name_or_path.startswith("hard:"):
+        from simulator.hard_tracks import hard_track
+
+        return hard_track(name_or_path[5:])
     path = Path(name_or_path)
     if not path.exists():
         raise TrackError(f"track {name_or_path!r}: no such file (use 'default', 'gen:SEED',"
