@@ -18,6 +18,8 @@ from typing import Any
 
 import pytest
 
+from support.shared_data import shared_data
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 TRACK = DATA / "tracks" / "eufs" / "small_oval.csv"
@@ -44,8 +46,7 @@ def json_out(proc: subprocess.CompletedProcess[str]) -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def sim_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
-    if not TRACK.exists():
-        pytest.skip(f"shared test data missing: {TRACK}")
+    shared_data("tracks", "eufs", "small_oval.csv")
     out = tmp_path_factory.mktemp("e2e_sim")
     config = out / "short.toml"
     config.write_text(f"[run]\nmax_sim_time_s = {SIM_TIME_S}\nrender = false\n")

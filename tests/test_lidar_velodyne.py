@@ -18,11 +18,12 @@ from sensors.velodyne import (
     decode_packet,
     decode_packets,
 )
+from support.shared_data import shared_path
 
 ROOT = Path(__file__).resolve().parents[1]
-PCAP = Path(__file__).resolve().parents[2] / "shared" / "data" / "lidar" / "velodyne_vlp16.pcap"
+PCAP = shared_path("lidar", "velodyne_vlp16.pcap")
 
-pytestmark = pytest.mark.skipif(not PCAP.exists(), reason="shared test data missing")
+pytestmark = pytest.mark.shared_data("lidar/velodyne_vlp16.pcap")
 
 
 def _data_packets() -> list[tuple[float, bytes]]:

@@ -16,8 +16,9 @@ from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection, RawBytes
 from sensors.udp_receiver import UdpReceiver, camera_receiver, lidar_receiver
+from support.shared_data import shared_path
 
-PCAP = Path(__file__).resolve().parents[2] / "shared" / "data" / "lidar" / "velodyne_vlp16.pcap"
+PCAP = shared_path("lidar", "velodyne_vlp16.pcap")
 FAST = dict(read_timeout_s=0.02, reconnect_min_s=0.02, reconnect_max_s=0.1)
 
 
@@ -104,7 +105,7 @@ def test_port_in_use_is_an_error_retried_not_a_crash() -> None:
         assert not receiver.is_alive()
 
 
-@pytest.mark.skipif(not PCAP.is_file(), reason="shared LiDAR data not present")
+@pytest.mark.shared_data("lidar/velodyne_vlp16.pcap")
 def test_lidar_receiver_real_vlp16_packets_and_truncated_ones() -> None:
     packets = pcap_udp_payloads(PCAP, 2368)
     assert packets and all(len(p) == 1206 for p in packets)

@@ -13,11 +13,12 @@ from common.errors import TrackError
 from common.messages import ConeColour, ConeSize
 from simulator.track_generator import check_fs_rules, default_track, generate_track
 from simulator.tracks import load_track, nearest_on_polyline
+from support.shared_data import shared_path
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks"
+DATA = shared_path("tracks")
 TRACK_FILES = sorted(DATA.glob("*/*.csv")) + sorted(DATA.glob("*/*.yaml"))
 
-pytestmark = pytest.mark.skipif(not DATA.exists(), reason="shared track data not available")
+pytestmark = pytest.mark.shared_data("tracks")
 
 
 def _expected_counts(path: Path) -> dict[int, int]:

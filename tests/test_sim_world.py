@@ -4,7 +4,6 @@ act on the outputs, laps and knocked cones are counted."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,8 +15,9 @@ from simulator.driver import ScriptedDriver
 from simulator.faults import Fault, parse_fault, parse_faults
 from simulator.tracks import Track, load_track
 from simulator.world import SimWorld
+from support.shared_data import shared_data, shared_path
 
-FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_fssim" / "FSG.yaml"
+FSG = shared_path("tracks", "amz_fssim", "FSG.yaml")
 
 
 def _drive(world: SimWorld, driver: ScriptedDriver, until_s: float, dt: float = 0.01) -> list:
@@ -39,8 +39,8 @@ def _lap(track: Track, seed: int) -> SimWorld:
 
 @pytest.mark.parametrize("name", ["default", "fsg", "gen:5", "gen:17"])
 def test_scripted_driver_laps_without_touching_cones(name: str) -> None:
-    if name == "fsg" and not FSG.exists():
-        pytest.skip("shared data not available")
+    if name == "fsg":
+        shared_data("tracks", "amz_fssim", "FSG.yaml")
     track = load_track(str(FSG) if name == "fsg" else name)
     world = _lap(track, seed=3)
     assert world.cones_hit == set()

@@ -15,14 +15,14 @@ from mapper.config import MapperConfig
 from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
 from mapper.slam_blas import limit_blas_threads
 from mapper.slam_reference import textbook_update
+from support.shared_data import shared_data
 
 limit_blas_threads(1)
 
 
 @pytest.fixture(scope="module")
 def fsg_run() -> slam_sim.SlamRun:
-    if not slam_sim.FSG_PATH.exists():
-        pytest.skip(f"{slam_sim.FSG_PATH} not present")
+    shared_data("tracks", "amz_fssim", "FSG.yaml")
     car = CarConfig()
     sim = slam_sim.simulate(slam_sim.load_fsg(), car, seed=0)
     return slam_sim.run_slam(sim, MapperConfig(), car)
