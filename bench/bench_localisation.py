@@ -25,10 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.config import AppConfig
 from common.conventions import wrap_angle
-from mapper.mapper import Mapper
 from mapper.synthetic import Drive, make_drive
+from orchestrator.config import AppConfig
+from orchestrator.managers import make_mapper
 
 HELP = "UKF localisation per sensor set against seed 001's tables"
 
@@ -73,7 +73,7 @@ def run_set(config: AppConfig, drive: Drive, sset: SensorSet) -> dict[str, float
     u.use_gnss_position = sset.gnss_position
     u.use_gnss_velocity = sset.gnss_velocity
     u.use_cones = sset.cones
-    mapper = Mapper(cfg)
+    mapper = make_mapper(cfg)
     if sset.cones:
         mapper.freeze(drive.cone_map())
     tr = drive.truth

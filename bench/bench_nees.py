@@ -22,7 +22,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "pose NEES of SLAM and UKF, pooled over simulation seeds"
 

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     Baseframe,
@@ -21,6 +20,7 @@ from common.messages import (
     PoseEstimate,
     TargetStates,
 )
+from orchestrator.config import AppConfig
 
 HELP = "renderer frames/s at 1280x720 with PNG writing; control-loop p99 with rendering on"
 
@@ -114,7 +114,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
         off: list[float] = []
         on: list[float] = []
         dropped = 0
-        with Visualiser(config, Path(tmp) / "live") as vis:
+        with Visualiser(config.visualiser, Path(tmp) / "live") as vis:
             time.sleep(1.0)  # let the renderer process start
             for _ in range(args.rounds):
                 off.append(float(np.percentile(_loop_periods(args.loop_seconds, None), 99)))

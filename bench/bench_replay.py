@@ -22,7 +22,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "replay --max of the sample recording: realtime factor and stage timings"
 TARGET_REALTIME_FACTOR = 20.0
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.replay import ReplayOptions, run_replay
-    from recordings.sample import sample_recording_path, summary_path
+    from orchestrator.sample import sample_recording_path, summary_path
 
     path: Path = args.recording or sample_recording_path()
     expected = None

@@ -12,7 +12,7 @@ import time
 from collections import defaultdict
 from typing import Any
 
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "simulated seconds per wall second, default track, every sensor on"
 

@@ -20,11 +20,11 @@ import time
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import ConeDetection
 from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
 from mapper.slam_blas import limit_blas_threads
 from mapper.slam_reference import textbook_update
+from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM sweep update: ours against the textbook EKF step"
 

@@ -12,9 +12,9 @@ from __future__ import annotations
 import argparse
 import time
 
-from common.config import AppConfig
 from mapper import slam_sim
 from mapper.slam_blas import limit_blas_threads
+from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM loop closure and map quality on generated tracks"
 

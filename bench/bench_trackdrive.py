@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "closed-loop trackdrive on generated tracks: laps, cones hit, best lap / minimum"
 

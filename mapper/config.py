@@ -141,9 +141,6 @@ class UkfConfig:
     """Seed 001 updates only the position from cones (its update mask); True also the yaw."""
     cone_max_yaw_rate_radps: float = 10.0
     """Seed 001's suggested fix: skip cone updates when turning faster than this."""
-    start_heading_known: bool = False
-    """True: the world frame's heading in ENU is config.sim.start_heading_enu_rad (dual antenna,
-    magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
     heading_estimate_samples: int = 100
     """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
     heading_estimate_max_yaw_rate_radps: float = 1.0

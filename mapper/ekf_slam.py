@@ -74,7 +74,7 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 from scipy.optimize import linear_sum_assignment
 from scipy.stats import chi2
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.conventions import wrap_angle
 from common.messages import (
     ConeColour,

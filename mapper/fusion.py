@@ -9,8 +9,8 @@ buffered IMU samples (:func:`predict_forward`, the mean only: cheap, and the gap
 
 The GNSS world frame (:class:`GnssFrameEstimator`): the ENU origin is the first fix; the world
 frame is the start pose, so its heading in ENU is needed. Either it is known (a dual antenna, a
-magnetometer or a surveyed start: ``UkfConfig.start_heading_known`` takes
-``config.sim.start_heading_enu_rad``) or it is estimated, by default from the GNSS course over
+magnetometer or a surveyed start: the mission's ``start_heading_enu_rad``, handed to the
+Mapper by Main) or it is estimated, by default from the GNSS course over
 ground against the filter's own course (gyro-integrated yaw plus slip angle) once moving above
 ``gnss_min_speed_mps``, averaged (weights speed squared) over ``heading_estimate_samples`` fixes;
 without courses (a GGA-only receiver) by aligning the GNSS track with the filter's over the first

@@ -1,6 +1,6 @@
 """The Mapper (Tier 2): readings in, :class:`MapState` out.
 
-Backends (``config.mapper.backend``):
+Backends (``mapper.backend``):
 
 - ``slam``: EKF SLAM of seed 000 (:class:`mapper.ekf_slam.EkfSlam`) maps and localises;
 - ``smoother``: seed 002's pipeline: the UKF of seed 001 gives the pose, LiDAR objects are put
@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, wrap_angle
 from common.messages import (
     CameraCones,
@@ -46,6 +46,7 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
+from mapper.config import MapperConfig
 from mapper.fusion import DelayBuffer, GnssFrameEstimator, compensate_motion, predict_forward
 from mapper.object_filter import ObjectFilter, detection_sizes, localise_objects
 from mapper.time_smoother import N_COLOURS, TimeSmoother
@@ -70,16 +71,21 @@ class Mapper:
     rejected and skipped measurements per sensor.
     """
 
-    def __init__(self, config: AppConfig) -> None:
+    def __init__(self, config: MapperConfig, car: CarConfig,
+                 start_heading_enu_rad: float | None = None) -> None:
+        """``start_heading_enu_rad``: the world frame's heading in ENU (rad) when it is known
+        (the mission's; None: estimated from the GNSS course)."""
         self.config = config
-        mc = config.mapper
+        self.car = car
+        self.start_heading_enu_rad = start_heading_enu_rad
+        mc = config
         self.backend = mc.backend
-        self.ukf = UkfLocaliser(mc.ukf, config.car)
+        self.ukf = UkfLocaliser(mc.ukf, car)
         self.slam: Any = None
         if self.backend == "slam":
             from mapper.ekf_slam import EkfSlam
 
-            self.slam = EkfSlam(mc, config.car)
+            self.slam = EkfSlam(mc, car)
         self.smoother = TimeSmoother(mc.smoother)
         self.object_filter = ObjectFilter(mc.object_filter)
         self.buffer = DelayBuffer(mc.fusion.max_delay_s)
@@ -192,7 +198,7 @@ class Mapper:
         T = slam_to_ukf_jacobian(ukf.x, v, ukf.n)
         pv = T @ P[:v, :v] @ T.T
         # The UKF's yaw-rate state is the last gyro sample less the bias: the gyro's noise.
-        pv[5, 5] += self.config.mapper.ukf.gyro_sigma_radps ** 2
+        pv[5, 5] += self.config.ukf.gyro_sigma_radps ** 2
         keep = [ukf.ih] if ukf.ih is not None else []
         if v == 5 or not ukf.nb:
             # Bias states in one filter only: they keep what set_imu_bias / reset gave them.
@@ -211,7 +217,7 @@ class Mapper:
         """At the freeze: the frame heading from every course of the exploration lap against the
         SLAM's yaw (:meth:`GnssFrameEstimator.heading_estimate`); the UKF's offset state starts
         at zero with its sigma."""
-        cfg = self.config.mapper.ukf
+        cfg = self.config.ukf
         estimator = self._frame_estimator
         if (not cfg.gnss_frame_refine or estimator is None or self.world_frame is None
                 or estimator.method != "course"):
@@ -250,7 +256,7 @@ class Mapper:
             self._last_wheels_s = r.timestamp_s
             if slam_active:
                 self.slam.update_odometry(r, self._steer)
-                if self.config.mapper.slam.use_odometry:
+                if self.config.slam.use_odometry:
                     self._count("odometry", "applied")
             else:
                 self.ukf.update_odometry(r, self._steer)
@@ -264,7 +270,7 @@ class Mapper:
             self._on_camera(r)
 
     def _on_gps(self, fix: GpsFix) -> None:
-        cfg = self.config.mapper.ukf
+        cfg = self.config.ukf
         if fix.fix_quality == 0 or not (math.isfinite(fix.lat_deg)
                                         and math.isfinite(fix.lon_deg)):
             self._count("gnss", "rejected_invalid")
@@ -272,7 +278,7 @@ class Mapper:
         if self._enu is None:
             alt = fix.altitude_m if math.isfinite(fix.altitude_m) else 0.0
             self._enu = LocalTangentFrame(fix.lat_deg, fix.lon_deg, alt)
-            known = self.config.sim.start_heading_enu_rad if cfg.start_heading_known else None
+            known = self.start_heading_enu_rad
             self._frame_estimator = GnssFrameEstimator(
                 self._enu, known, cfg.heading_estimate_samples, cfg.gnss_min_speed_mps,
                 cfg.track_alignment_distance_m,
@@ -304,7 +310,7 @@ class Mapper:
         assert self.world_frame is not None
         xy = self.world_frame.enu_to_world(east, north).reshape(2)
         if self._slam_active():
-            self.slam.update_gps_xy(xy, np.eye(2) * self.config.mapper.slam.gps_sigma_m**2,
+            self.slam.update_gps_xy(xy, np.eye(2) * self.config.slam.gps_sigma_m**2,
                                     fix.timestamp_s)
             return
         self.ukf.update_gnss_position(xy)
@@ -332,7 +338,7 @@ class Mapper:
             assert self._frozen_map is not None
             self.ukf.update_cones_on_map(cones, self._frozen_map, xy_vehicle)
             return
-        fc = self.config.mapper.fusion
+        fc = self.config.fusion
         if fc.smoother_localise:
             # SLAM without cross-covariances: localise on the objects the smoother has
             # confirmed, then add this sweep to them.
@@ -345,7 +351,7 @@ class Mapper:
                 x = self.ukf.x
         pose = (float(x[0]), float(x[1]), float(x[2]))
         xy_world = vehicle_to_world(xy_vehicle, *pose).reshape(-1, 2)
-        lidar = vehicle_to_world([self.config.car.lidar_x_m, 0.0], *pose).reshape(2)
+        lidar = vehicle_to_world([self.car.lidar_x_m, 0.0], *pose).reshape(2)
         colours = np.array([int(c.colour) for c in cones], np.int64)
         self.smoother.update(xy_world, detection_sizes(cones),
                              (float(lidar[0]), float(lidar[1]), pose[2]), colours)
@@ -357,7 +363,7 @@ class Mapper:
             self.freeze()
 
     def _on_camera(self, frame: CameraCones) -> None:
-        fc = self.config.mapper.fusion
+        fc = self.config.fusion
         cones = [c for c in frame.cones
                  if math.isfinite(c.x_m) and math.isfinite(c.y_m)
                  and int(ConeColour.UNKNOWN) < int(c.colour) < N_COLOURS]
@@ -435,7 +441,7 @@ class Mapper:
         gyro_bias, accel_bias = bg, np.array([bax, bay])
         if recent and not calibrating:
             pred, t = predict_forward(state, t_lag, recent, gyro_bias, accel_bias,
-                                      self.config.car.imu_x_m)
+                                      self.car.imu_x_m)
         else:  # standing still (calibrating) or nothing newer: the lagged state holds
             pred = np.asarray(state, np.float64)
             t = max(t_lag, recent[-1].timestamp_s) if recent else t_lag

@@ -21,7 +21,7 @@ import yaml
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline, splev, splprep
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import (
     CameraCones,
     ConeColour,

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, world_to_vehicle
 from common.messages import (
     CameraCones,

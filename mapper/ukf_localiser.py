@@ -51,7 +51,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.conventions import wrap_angle
 from common.messages import (
     ConeDetection,

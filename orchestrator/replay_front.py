@@ -28,12 +28,13 @@ from typing import Any
 
 from common import messages
 from common.clock import SimClock
-from common.config import AppConfig
 from common.errors import RecordingError
 from common.messages import CanFrame, GroundTruth, Health, RawBytes, Reading
+from orchestrator.config import AppConfig
+from orchestrator.managers import make_sensors
 from recordings.player import Player
 from recordings.topics import RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK
-from sensors.manager import SensorBatch, SensorManager
+from sensors.manager import SensorBatch
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +79,7 @@ def tick_inputs(config: AppConfig, path: Path, rate: float | None, n_ticks: int,
     times = times if times is not None else FrontEndTimes()
     dt_s = 1.0 / config.run.control_rate_hz
     clock = SimClock()
-    sensors = SensorManager(config, clock, keep_raw=False)  # a replay records nothing
+    sensors = make_sensors(config, clock, keep_raw=False)  # a replay records nothing
     stream = iter(Player(path, rate=rate, topics=[*RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK]))
     clock_now = time.perf_counter
     t_read = clock_now()

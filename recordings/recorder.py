@@ -36,7 +36,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import register_schema
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.errors import RecordingError
 from common.messages import CanFrame, GpsFix, MapState, Plan, RawBytes
 from recordings import foxglove_views, topics

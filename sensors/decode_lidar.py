@@ -22,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.errors import DecodeError
+from sensors.config import LidarConfig
 from sensors.lidar_parser import LidarParser
 from sensors.velodyne import PACKET_SIZE, POSITION_PACKET_SIZE, decode_packets
 
@@ -110,7 +111,8 @@ def _udp_payload(ip: bytes) -> tuple[int, bytes] | None:
 
 
 def decode_pcap(path: str, points_out: str | None = None,
-                config: AppConfig | None = None) -> Iterator[dict[str, Any]]:
+                config: LidarConfig | None = None,
+                car: CarConfig | None = None) -> Iterator[dict[str, Any]]:
     """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}``.
 
     Each sweep dict has ``time`` (end of the sweep, pcap clock, s), ``sweep_start``,
@@ -118,9 +120,8 @@ def decode_pcap(path: str, points_out: str | None = None,
     ``x_m``, ``y_m``, ``size``, ``height_m``, ``time``). Datagrams to other ports are counted;
     1206-byte datagrams that do not decode are counted as rejects by reason.
     """
-    config = config if config is not None else AppConfig()
     counts: Counter[str] = Counter()
-    parser = LidarParser(config)
+    parser = LidarParser(config, car)
     all_points: list[np.ndarray] = []
     for stamp, port, payload in read_pcap_udp(path, counts):
         if port == POSITION_PORT or len(payload) == POSITION_PACKET_SIZE:

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand, AsState, GroundTruth
 from simulator.tracks import Track, polyline_curvature
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand, GroundTruth
 from simulator.tracks import FloatArray
 

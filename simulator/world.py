@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import ActuatorCommand, AsState, CanFrame, GroundTruth, RawBytes
+from simulator.config import WorldConfig
 from simulator.faults import Fault, parse_faults
 from simulator.tracks import Track
 from simulator.vehicle import Vehicle
@@ -57,7 +57,7 @@ class SimWorld:
     person presses go at the handover: :meth:`send_go`).
     """
 
-    def __init__(self, config: AppConfig, track: Track, seed: int | None = None,
+    def __init__(self, config: WorldConfig, track: Track, seed: int | None = None,
                  faults: str | Iterable[str | Fault] | None = None,
                  sensors: Sequence[str] | None = None, res_go: bool = False) -> None:
         self.config = config

@@ -8,8 +8,8 @@ import struct
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import GroundTruth
+from orchestrator.config import AppConfig
 from sensors.imu_protocol import ImuParser, crc16
 from simulator.imu_model import GRAVITY_MPS2, ImuModel, ImuNoise
 

@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import ConeSize, GroundTruth
+from orchestrator.config import AppConfig
 from sensors.velodyne import PACKET_DURATION_S, PACKET_SIZE, decode_packets
 from simulator.lidar_model import LARGE_CONE, SMALL_CONE, LidarModel
 

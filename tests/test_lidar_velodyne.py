@@ -148,8 +148,8 @@ def test_simulated_packets_over_udp_loopback_give_cones() -> None:
     import socket
     from types import SimpleNamespace
 
-    from common.config import AppConfig
     from common.messages import GroundTruth
+    from orchestrator.config import AppConfig
     from simulator.lidar_model import LidarModel
 
     config = AppConfig()
@@ -165,7 +165,7 @@ def test_simulated_packets_over_udp_loopback_give_cones() -> None:
     rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
     rx.bind(("127.0.0.1", 0))
     rx.settimeout(2.0)
-    parser = LidarParser(config)
+    parser = LidarParser(config.sensors.lidar, config.car)
     out = []
     try:
         for raw in raws:

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.conventions import WorldFrame
 from common.messages import (
     CameraCones,
@@ -23,15 +22,15 @@ from mapper.evaluation import evaluate_map
 from mapper.fusion import DelayBuffer
 from mapper.mapper import Mapper
 from mapper.synthetic import make_drive
+from orchestrator.config import AppConfig
 
 
 def _run(backend: str, seconds: float, seed: int = 2) -> tuple[Mapper, MapState, float]:
     cfg = AppConfig()
     cfg.mapper.backend = backend  # type: ignore[assignment]
-    cfg.mapper.ukf.start_heading_known = True  # dual antenna: the frame is known after 10 fixes
-    cfg.sim.start_heading_enu_rad = 0.7
     drive = make_drive("loop", seed=seed, standstill_s=1.0, start_heading_enu_rad=0.7)
-    mapper = Mapper(cfg)
+    # A dual antenna: the frame's heading is known; the frame is found after 10 fixes.
+    mapper = Mapper(cfg.mapper, cfg.car, start_heading_enu_rad=0.7)
     state = mapper.state()
     worst_lag = 0.0
     for now, batch in drive.batches(100.0):
@@ -69,7 +68,7 @@ def test_smoother_lap_closes_freezes_and_localises_on_the_map() -> None:
     cfg = AppConfig()
     cfg.mapper.backend = "smoother"
     drive = make_drive("loop", seed=4, start_heading_enu_rad=-2.0)
-    mapper = Mapper(cfg)
+    mapper = Mapper(cfg.mapper, cfg.car)
     frozen_at = None
     state = mapper.state()
     for now, batch in drive.batches(100.0):
@@ -115,7 +114,7 @@ def test_freeze_with_a_known_map_uses_cone_updates() -> None:
     cfg = AppConfig()
     cfg.mapper.backend = "smoother"
     drive = make_drive("loop", seed=5, standstill_s=1.0)
-    mapper = Mapper(cfg)
+    mapper = Mapper(cfg.mapper, cfg.car)
     mapper.freeze(drive.cone_map())
     for now, batch in drive.batches(100.0):
         if now > 8.0:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from planner_closed_loop_helpers import run_closed_loop
 
-from common.config import AppConfig
 from common.messages import AsState
+from orchestrator.config import AppConfig
 from planner.speed_profile import min_lap_time_s
 from simulator.tracks import load_track
 from support.shared_data import shared_path

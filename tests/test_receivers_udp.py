@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection, RawBytes
+from orchestrator.config import AppConfig
 from sensors.udp_receiver import UdpReceiver, camera_receiver, lidar_receiver
 from support.shared_data import shared_path
 
@@ -110,7 +110,8 @@ def test_lidar_receiver_real_vlp16_packets_and_truncated_ones() -> None:
     packets = pcap_udp_payloads(PCAP, 2368)
     assert packets and all(len(p) == 1206 for p in packets)
     clock = RealClock()
-    receiver = lidar_receiver(clock, AppConfig(), "127.0.0.1", 0, **FAST)
+    config = AppConfig()
+    receiver = lidar_receiver(clock, config.sensors.lidar, config.car, "127.0.0.1", 0, **FAST)
     with receiver:
         assert receiver.wait_connected(5.0)
         assert receiver.bound_address is not None

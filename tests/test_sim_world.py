@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.errors import ConfigError
 from common.messages import ActuatorCommand, CanFrame, RawBytes
+from orchestrator.config import AppConfig
 from simulator.driver import ScriptedDriver
 from simulator.faults import Fault, parse_fault, parse_faults
 from simulator.tracks import Track, load_track

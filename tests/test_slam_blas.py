@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ConeDetection, ConeSize, ImuSample, WheelSpeeds
 from mapper import ekf_slam
 from mapper.config import MapperConfig

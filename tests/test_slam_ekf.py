@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, ImuSample, WheelSpeeds
 from mapper import slam_sim
 from mapper.config import MapperConfig

@@ -9,7 +9,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ConeDetection, ConeSize, ImuSample, WheelSpeeds
 from mapper.config import MapperConfig
 from mapper.ekf_slam import EkfSlam, motion_model, observation_model

@@ -7,13 +7,13 @@ import math
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from common.config import AppConfig
 from common.messages import ConeDetection
 from mapper.config import ObjectFilterConfig, SmootherConfig
 from mapper.mapper import Mapper
 from mapper.object_filter import ObjectFilter, localise_objects
 from mapper.synthetic import make_drive
 from mapper.time_smoother import TimeSmoother
+from orchestrator.config import AppConfig
 
 SIZE = np.array([[0.228, 0.325]])
 
@@ -84,7 +84,7 @@ def test_straight_drive_acceptance() -> None:
     cfg = AppConfig()
     cfg.mapper.backend = "smoother"
     drive = make_drive("straight", seed=3, length_m=100.0, half_width_m=2.5, cone_spacing_m=5.0)
-    mapper = Mapper(cfg)
+    mapper = Mapper(cfg.mapper, cfg.car)
     state = None
     for now, batch in drive.batches(100.0):
         state = mapper.update(batch, now)

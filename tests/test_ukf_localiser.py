@@ -7,10 +7,10 @@ import math
 import numpy as np
 from scipy.stats import chi2
 
-from common.config import AppConfig
 from common.messages import ConeDetection, GpsFix, ImuSample, WheelSpeeds
 from mapper.synthetic import DriveNoise, make_drive
 from mapper.ukf_localiser import UkfLocaliser
+from orchestrator.config import AppConfig
 
 
 def _still_imu(t: float, rng: np.random.Generator) -> ImuSample:
