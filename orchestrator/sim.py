@@ -37,7 +37,8 @@ from recordings.topics import TRUTH_POSE, TRUTH_TRACK
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
 from simulator.handover import Handover, Phase
-from simulator.tracks import Track, load_track
+from simulator.track import Track
+from simulator.tracks import load_track
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)

@@ -29,7 +29,7 @@ import numpy as np
 
 from common.car import CarConfig
 from common.messages import ActuatorCommand, GroundTruth
-from simulator.tracks import FloatArray
+from common.polyline import FloatArray
 
 GRAVITY_MPS2 = 9.81
 ROLLING_RESISTANCE_MPS2 = 0.15

@@ -25,7 +25,7 @@ import numpy as np
 from common.messages import ActuatorCommand, AsState, CanFrame, GroundTruth, RawBytes
 from simulator.config import WorldConfig
 from simulator.faults import Fault, parse_faults
-from simulator.tracks import Track
+from simulator.track import Track
 from simulator.vehicle import Vehicle
 
 log = logging.getLogger(__name__)

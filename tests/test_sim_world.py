@@ -13,7 +13,8 @@ from common.messages import ActuatorCommand, CanFrame, RawBytes
 from orchestrator.config import AppConfig
 from simulator.driver import ScriptedDriver
 from simulator.faults import Fault, parse_fault, parse_faults
-from simulator.tracks import Track, load_track
+from simulator.track import Track
+from simulator.tracks import load_track
 from simulator.world import SimWorld
 from support.shared_data import shared_data, shared_path
 
