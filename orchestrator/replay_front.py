@@ -30,6 +30,7 @@ from common import messages
 from common.clock import SimClock
 from common.errors import RecordingError
 from common.messages import CanFrame, GroundTruth, Health, RawBytes, Reading
+from common.track import TrackLayout
 from orchestrator.config import AppConfig
 from orchestrator.managers import make_sensors
 from recordings.player import Player
@@ -219,7 +220,7 @@ def _message_pickler() -> Callable[[object], bytes]:
     (rebuilt by calling the class), which unpickles about twice as fast as the default state
     dictionaries of slotted dataclasses. Only ever read back by our own Main process."""
     table = copyreg.dispatch_table.copy()
-    for cls in [*vars(messages).values(), TickInput, FrontEndTimes]:
+    for cls in [*vars(messages).values(), TrackLayout, TickInput, FrontEndTimes]:
         if isinstance(cls, type) and dataclasses.is_dataclass(cls):
             names = tuple(f.name for f in dataclasses.fields(cls) if f.init)
             table[cls] = functools.partial(_reduce_dataclass, cls, names)
@@ -241,7 +242,7 @@ def _reduce_dataclass(cls: type, names: tuple[str, ...], obj: object
 
 _ALLOWED_GLOBALS = {
     "orchestrator.replay_front": {"TickInput", "FrontEndTimes"},
-    "recordings.codec": {"TrackRecord"},
+    "common.track": {"TrackLayout"},
     "numpy": {"dtype", "ndarray"},
     "numpy._core.numeric": {"_frombuffer"},
     "numpy.core.numeric": {"_frombuffer"},
