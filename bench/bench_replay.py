@@ -132,7 +132,7 @@ def _profile(config: AppConfig, path: Path, top: int) -> None:
     entry_points = {
         ("main_loop.py", "tick"): "Main.tick (all stages)",
         ("mapper.py", "update"): "Mapper.update",
-        ("ekf_slam.py", "_update"): "  EKF SLAM Kalman update",
+        ("ekf.py", "update"): "  EKF SLAM Kalman update",
         ("ekf_slam.py", "update_cones"): "  EKF SLAM cone update",
         ("ukf_localiser.py", "predict"): "  UKF predict",
         ("manager.py", "ingest"): "SensorManager.ingest (parsers)",

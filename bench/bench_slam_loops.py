@@ -13,7 +13,7 @@ import argparse
 import time
 
 from mapper import slam_sim
-from mapper.slam_blas import limit_blas_threads
+from mapper.slam.blas import limit_blas_threads
 from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM loop closure and map quality on generated tracks"

@@ -195,7 +195,7 @@ class FusionConfig:
 
 @dataclass(slots=True)
 class SlamConfig:
-    """Seed 000, section 5.3: EKF SLAM with controlled loop closure (see mapper/ekf_slam.py)."""
+    """Seed 000, section 5.3: EKF SLAM with controlled loop closure (see mapper/slam/)."""
 
     gyro_noise_density_radps_rthz: float = 3.0e-4
     """Gyro white noise (rad/s/sqrt(Hz)), with model error; Q = G diag(sigma^2 / T) G^T."""

@@ -47,7 +47,9 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import MapperConfig
-from mapper.fusion import DelayBuffer, GnssFrameEstimator, compensate_motion, predict_forward
+from mapper.delay_buffer import DelayBuffer
+from mapper.gnss_frame import GnssFrameEstimator
+from mapper.motion import compensate_motion, predict_forward
 from mapper.object_filter import ObjectFilter, detection_sizes, localise_objects
 from mapper.time_smoother import N_COLOURS, TimeSmoother
 from mapper.ukf_localiser import N_BIAS, N_STATE, UkfLocaliser
@@ -83,7 +85,7 @@ class Mapper:
         self.ukf = UkfLocaliser(mc.ukf, car)
         self.slam: Any = None
         if self.backend == "slam":
-            from mapper.ekf_slam import EkfSlam
+            from mapper.slam.ekf_slam import EkfSlam
 
             self.slam = EkfSlam(mc, car)
         self.smoother = TimeSmoother(mc.smoother)

@@ -33,7 +33,6 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import MapperConfig
-from mapper.ekf_slam import EkfSlam
 from mapper.evaluation import (
     evaluate_map,
     nees,
@@ -41,6 +40,7 @@ from mapper.evaluation import (
     pose_error_vectors,
     pose_errors,
 )
+from mapper.slam.ekf_slam import EkfSlam
 
 FloatArray = NDArray[np.float64]
 DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -114,7 +114,7 @@ class Trajectory:
     """Where the car started in the scenario's original frame (x_m, y_m, yaw_rad)."""
     slip_rad_per_mps2: float = 0.0
     """Rear-axle slip angle per lateral acceleration: yaw = course + atan(alpha), alpha =
-    k a_max atanh(a_y / a_max) (the tanh tyre law of mapper.fusion.rear_slip_velocity)."""
+    k a_max atanh(a_y / a_max) (the tanh tyre law of mapper.motion.rear_slip_velocity)."""
     grip_lateral_accel_mps2: float = 1.5 * 9.81
 
     def state(self, t_s: FloatArray) -> dict[str, FloatArray]:

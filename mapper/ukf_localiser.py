@@ -62,7 +62,7 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import UkfConfig
-from mapper.fusion import rear_slip_velocity
+from mapper.motion import rear_slip_velocity
 
 log = logging.getLogger(__name__)
 

@@ -18,8 +18,8 @@ from common.messages import (
     PoseEstimate,
     RemoteStop,
 )
+from mapper.delay_buffer import DelayBuffer
 from mapper.evaluation import evaluate_map
-from mapper.fusion import DelayBuffer
 from mapper.mapper import Mapper
 from mapper.synthetic import make_drive
 from orchestrator.config import AppConfig

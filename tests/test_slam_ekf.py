@@ -12,8 +12,9 @@ from common.car import CarConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, ImuSample, WheelSpeeds
 from mapper import slam_sim
 from mapper.config import MapperConfig
-from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
-from mapper.slam_blas import limit_blas_threads
+from mapper.slam.blas import limit_blas_threads
+from mapper.slam.ekf_slam import EkfSlam
+from mapper.slam.models import POSE_DIM, observation_model
 from mapper.slam_reference import textbook_update
 from support.shared_data import shared_data
 
@@ -154,7 +155,7 @@ def test_landmarks_unseen_for_long_are_not_associated() -> None:
 def test_merge_deletes_rows_and_columns() -> None:
     slam = _filter_with_landmarks(np.array([[5.0, 0.0], [9.0, 3.0], [5.05, 0.02]]), 0.05)
     ids_before = slam.cone_map().ids.tolist()
-    slam._merge(np.array([0]), np.array([2]))
+    slam.merge_landmarks(np.array([0]), np.array([2]))
     assert slam.n_landmarks == 2 and slam.P.shape == (9, 9)
     assert slam.cone_map().ids.tolist() == ids_before[:2]
     # Equal weights: the merged landmark lies between the two.
@@ -235,7 +236,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
     slam = EkfSlam(MapperConfig(), CarConfig())
     for k in range(100):
         slam.predict(ImuSample(k * 0.005, 3.0, 2.0, 9.81, 0.0, 0.0, 0.4 + 0.001 * k))
-    slam._xbuf[2:8] = [0.3, 5.0, 1.0, 0.001, 0.05, -0.03]
+    slam.ekf.xbuf[2:8] = [0.3, 5.0, 1.0, 0.001, 0.05, -0.03]
     got: dict[str, np.ndarray] = {}
 
     def capture(cols: np.ndarray, h: np.ndarray, innovation: np.ndarray, r: np.ndarray) -> bool:
@@ -243,7 +244,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
         return True
 
     def innovation(s: EkfSlam) -> np.ndarray:
-        s._update_vehicle = capture  # type: ignore[method-assign]
+        s.ekf.update_vehicle = capture  # type: ignore[method-assign]
         s.update_odometry(WheelSpeeds(float(slam.t_s or 0.0), 5.0, 5.0, 5.0, 5.0), None)
         return got["y"].copy()
 
@@ -252,7 +253,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
     num = np.zeros_like(h)
     for j, c in enumerate(cols):
         lo, hi = copy.deepcopy(slam), copy.deepcopy(slam)
-        lo._xbuf[c] -= 1e-6
-        hi._xbuf[c] += 1e-6
+        lo.ekf.xbuf[c] -= 1e-6
+        hi.ekf.xbuf[c] += 1e-6
         num[:, j] = -(innovation(hi) - innovation(lo)) / 2e-6
     assert np.allclose(num, h, atol=1e-6)

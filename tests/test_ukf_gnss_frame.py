@@ -10,7 +10,8 @@ import pytest
 
 from common.conventions import LocalTangentFrame
 from common.messages import ImuSample
-from mapper.fusion import GnssFrameEstimator, predict_forward
+from mapper.gnss_frame import GnssFrameEstimator
+from mapper.motion import predict_forward
 from mapper.ukf_localiser import UkfLocaliser
 from orchestrator.config import AppConfig
 
