@@ -130,8 +130,8 @@ def test_slam_backend_hands_over_to_the_ukf_at_the_freeze() -> None:
     SLAM's pose, velocities and IMU bias estimates, and localises on from there."""
     mapper, state, _ = _run("slam", 6.0)
     assert mapper.ukf.stats.get("imu", {}).get("applied", 0) == 0  # idle while SLAM maps
-    slam_pose = mapper.slam.pose()
-    bias = mapper.slam.imu_bias
+    slam_pose = mapper.backend.slam.pose()
+    bias = mapper.backend.slam.imu_bias
     mapper.freeze()
     assert mapper.map_frozen
     assert mapper.ukf.x[:3] == pytest.approx([slam_pose.x_m, slam_pose.y_m, slam_pose.yaw_rad])

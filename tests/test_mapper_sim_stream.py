@@ -54,10 +54,10 @@ def stream_errors() -> dict[str, np.ndarray | float]:
         pose = state.pose
         pos.append(math.hypot(pose.x_m - truth.x_m, pose.y_m - truth.y_m))
         yaw.append(math.remainder(pose.yaw_rad - truth.yaw_rad, 2 * math.pi))
-    assert mapper.slam is not None
-    bias = mapper.slam.imu_bias
+    assert mapper.backend.name == "slam"
+    bias = mapper.backend.slam.imu_bias
     return {"pos": np.array(pos), "yaw": np.array(yaw), "gyro_bias": bias[0],
-            "landmarks": float(mapper.slam.n_landmarks)}
+            "landmarks": float(mapper.backend.slam.n_landmarks)}
 
 
 def test_pose_follows_the_truth_on_the_simulator_stream(stream_errors: dict) -> None:

@@ -99,7 +99,7 @@ def test_straight_drive_acceptance() -> None:
     dist = np.linalg.norm(kept[:, None, :] - seen[None, :, :], axis=2)
     rows, cols = linear_sum_assignment(np.where(dist < 1.0, dist, 1e6))
     matched = int(np.count_nonzero(dist[rows, cols] < 1.0))
-    raw = mapper.smoother.raw_objects_total
+    raw = mapper.backend.smoother.raw_objects_total
     print(f"raw objects {raw} (false {false_total}) -> kept {len(kept)}; true cones seen "
           f"{len(seen)}, matched {matched}")
     assert false_total > 20
