@@ -27,7 +27,8 @@ from common.messages import (
 from mapper.backend import FloatArray, Lagged, SweepResult
 from mapper.config import MapperConfig
 from mapper.slam.ekf_slam import EkfSlam
-from mapper.ukf_localiser import N_BIAS, N_STATE, UkfLocaliser
+from mapper.ukf_localiser import UkfLocaliser
+from mapper.ukf_state import N_BIAS, N_STATE
 
 
 class SlamBackend:
