@@ -20,11 +20,11 @@ import time
 
 import numpy as np
 
+from bench.textbook_ekf import textbook_update
 from common.messages import ConeDetection
 from mapper.slam.blas import limit_blas_threads
 from mapper.slam.ekf_slam import EkfSlam
 from mapper.slam.models import POSE_DIM, observation_model
-from mapper.slam_reference import textbook_update
 from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM sweep update: ours against the textbook EKF step"

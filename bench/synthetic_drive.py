@@ -1,10 +1,10 @@
-"""A small deterministic drive with parsed sensor readings, for the Mapper's tests and benchmark.
+"""The localisation benchmark's drive (``bench localisation``): seed 001's experiment replayed.
 
-Not the project's simulator (simulator/ emits raw hardware bytes): this one makes the parsed
-readings the Mapper takes, directly, with the same noise figures as the simulator's defaults
-(``simulator/config.py``) where it has them, so the estimator can be checked against truth
-without the sensor pipeline. A kinematic car (rear-axle origin, the rear axle's tyre slip)
-follows a path at a speed profile after standing still at the start:
+Not the project's simulator (simulator/ emits raw hardware bytes; the Mapper's tests drive that
+one): this one makes the parsed readings the Mapper takes, directly, with the same noise figures
+as the simulator's defaults (``simulator/config.py``) where it has them, so the estimator can be
+checked against truth without the sensor pipeline. A kinematic car (rear-axle origin, the rear
+axle's tyre slip) follows a path at a speed profile after standing still at the start:
 
 - IMU 200 Hz: specific force at ``car.imu_x_m`` (centripetal and tangential terms), white noise
   and a constant per-run bias;

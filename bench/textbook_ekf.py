@@ -1,4 +1,5 @@
-"""The textbook EKF-SLAM update, for comparison only (benchmarks and tests).
+"""The textbook EKF-SLAM update, the reference ``bench slam`` times ours against (and the
+tests check ours equals).
 
 A full dense ``H`` (2a, n), ``S = H P H^T + R``, an explicit ``inv(S)``, ``K = P H^T S^-1`` and
 a full n x n covariance update: ``form="joseph"`` is filterpy's ``ExtendedKalmanFilter.update``
