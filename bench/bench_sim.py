@@ -50,8 +50,6 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
 
     track = load_track(args.track)
     world = SimWorld(config, track, seed=args.seed)
-    if world.missing_models:
-        print(f"missing sensor models: {', '.join(world.missing_models)}")
     table: dict[str, float] = defaultdict(float)
     world.models = {name: _Timed(name, m, table) for name, m in world.models.items()}
     driver = ScriptedDriver(track, config.car, seed=args.seed,

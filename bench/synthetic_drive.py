@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.car import CarConfig
-from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, world_to_vehicle
+from common.conventions import LocalTangentFrame, WorldFrame, world_to_vehicle
 from common.messages import (
     CameraCones,
     ConeColour,
@@ -369,8 +369,3 @@ def _camera_frame(rel: FloatArray, colours: NDArray[np.int64], car: CarConfig, n
                                  float(rel[i, 1] + rng.normal(0.0, sigma)),
                                  colour=ConeColour(colour), confidence=0.9))
     return out
-
-
-def vehicle_points_to_world(points: FloatArray, pose: tuple[float, float, float]) -> FloatArray:
-    """Convenience: (N, 2) vehicle-frame points to the world at ``pose``."""
-    return vehicle_to_world(points, *pose).reshape(-1, 2)

@@ -131,7 +131,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     try:
         result = runner.run()
     finally:
-        sensors.stop() if hasattr(sensors, "stop") else None
+        sensors.stop()
         if recorder is not None:
             recorder.close()
         if visualiser is not None:
@@ -351,9 +351,6 @@ def _movie(config: AppConfig, out_dir: Path) -> None:
 
 
 def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:
-    try:
-        from visualiser.plots import write_summary_plots
-    except ImportError:  # the visualiser is optional for a run
-        log.warning("visualiser.plots not available: no summary plots")
-        return
+    from visualiser.plots import write_summary_plots
+
     write_summary_plots(out_dir, runner.log.arrays(), track)

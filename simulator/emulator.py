@@ -270,13 +270,3 @@ class HardwareEmulator:
             "final_speed_mps": round(self.final_speed_mps, 3),
             "watchdog_stop": self.watchdog_stop,
         }
-
-
-def wait_for_file(path: Path, timeout_s: float) -> bool:
-    """True once ``path`` exists (for scripts that start `drive` after `emulate`)."""
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if path.exists():
-            return True
-        time.sleep(0.05)
-    return False

@@ -86,8 +86,6 @@ def test_missing_decoder_module_is_a_clear_error(tmp_path: Path, monkeypatch: py
 def test_decode_can_and_lidar_dispatch(capsys: pytest.CaptureFixture[str]) -> None:
     log = shared_data("can", "comma2k19_rav4_bus0_candump.log")
     pcap = shared_data("lidar", "velodyne_vlp16.pcap")
-    pytest.importorskip("sensors.decode_can")
-    pytest.importorskip("sensors.decode_lidar")
     code, lines, _ = _run(["decode", "can", str(log)], capsys)
     assert code == 0 and "counts" in lines[-1]
     code, lines, _ = _run(["decode", "lidar", str(pcap)], capsys)

@@ -146,8 +146,8 @@ def test_same_seed_same_bytes() -> None:
 
 
 def test_uses_the_vehicle_model_acceleration_when_given() -> None:
-    vehicle_mod = pytest.importorskip("simulator.vehicle")
     from common.messages import ActuatorCommand
+    from simulator import vehicle as vehicle_mod
 
     config = AppConfig()
     vehicle = vehicle_mod.Vehicle(config.car)

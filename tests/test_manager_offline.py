@@ -170,7 +170,7 @@ def test_send_command_offline_returns_the_frame() -> None:
 
 
 def test_can_model_with_the_simulated_vehicle() -> None:
-    vehicle_mod = pytest.importorskip("simulator.vehicle")
+    from simulator import vehicle as vehicle_mod
     config = offline_config()
     vehicle = vehicle_mod.Vehicle(config.car)
     cmd = ActuatorCommand(0.0, 0.5, 0.0, 0.1)

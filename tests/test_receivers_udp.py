@@ -130,7 +130,7 @@ def test_lidar_receiver_real_vlp16_packets_and_truncated_ones() -> None:
 
 
 def test_camera_receiver_with_the_project_codec() -> None:
-    codec = pytest.importorskip("sensors.camera_codec")
+    from sensors import camera_codec as codec
     clock = RealClock()
     receiver = camera_receiver(clock, "127.0.0.1", 0, **FAST)
     cc = CameraCones(1.25, (ConeDetection(1.25, 5.0, 1.5, ConeColour.BLUE, confidence=0.9),
