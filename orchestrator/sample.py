@@ -1,4 +1,4 @@
-"""The sample recording: one simulated exploration lap, made on first use (issue 5, item 7).
+"""The sample recording: one simulated exploration lap, made on first use.
 
 ``python main.py replay sample`` replays it, so that replay works on a fresh machine with no
 recording of one's own. It is not kept in git (about 20 MB of LiDAR packets): the first call of
