@@ -25,8 +25,9 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from common.config import AppConfig, config_to_toml, load_config
+from common.config import config_to_toml
 from common.errors import FsdError
+from orchestrator.config import AppConfig, load_config
 
 log = logging.getLogger("main")
 

@@ -22,8 +22,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from common.cli_types import positive_int
-from common.config import AppConfig
 from common.messages import ConeSize, GroundTruth, LidarPoints
+from orchestrator.config import AppConfig
 from sensors.cone_detector import ConeDetector
 from sensors.lidar_parser import LidarParser
 from sensors.velodyne import RING_ELEVATION_DEG
@@ -53,7 +53,8 @@ def _track() -> SimpleNamespace:
 
 def _sweeps(config: AppConfig, count: int) -> list[LidarPoints]:
     model = LidarModel(config, np.random.default_rng(1))
-    parser = LidarParser(config, all_points=True)  # every return, as before the window
+    # every return, as before the window
+    parser = LidarParser(config.sensors.lidar, config.car, all_points=True)
     track = _track()
     speed = 8.0
     rate = speed / RADIUS_M
@@ -107,7 +108,7 @@ def _reference(points: np.ndarray, lidar_z_m: float) -> int:
 def run(args: argparse.Namespace, config: AppConfig) -> int:
     """Simulate, then time the detector and the reference on the same sweeps."""
     sweeps = _sweeps(config, max(1, args.sweeps))
-    detector = ConeDetector(config)
+    detector = ConeDetector(config.sensors.lidar.detector, config.car)
     ours: list[float] = []
     ref: list[float] = []
     cones = 0

@@ -31,7 +31,7 @@ from bench.fuzz_corpus import DEFAULT_DATA, SEEDS
 from bench.fuzz_mutate import Mutator
 from bench.fuzz_targets import Target, make_targets
 from common.cli_types import non_negative_int, positive_int
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "mutated real captures through every parser; uncaught exceptions per parser (target 0)"
 PARSERS = tuple(SEEDS)

@@ -2,17 +2,17 @@
 
 Each of seed 001's sensor sets (IMU; IMU + odometry; + GNSS position; + GNSS speeds; + cones) is
 run through the Mapper (smoother backend: the UKF gives the pose, fed through the delay buffer)
-on a deterministic synthetic lap (mapper/synthetic.py: a 100 m stadium loop at 5 m/s after a
-3 s standstill; IMU 200 Hz with noise and a per-run bias, wheel speeds 100 Hz with slip noise and
-a 0.5 % tyre-radius error, GNSS 10 Hz with 2.5 m white noise plus a 1 m Gauss-Markov bias of
-60 s, LiDAR cones 10 Hz with 2 cm range noise, 10 % missed and 5 % false). The cone set localises
-on the known map, as the seed assumes. The GNSS world frame is estimated (course against the
-filter's yaw), not given. Errors are taken on the pose handed to control (predicted to now)
-while the car moves.
+on a deterministic synthetic lap (bench/synthetic_drive.py, seed 001's experiment replayed: a
+100 m stadium loop at 5 m/s after a 3 s standstill; IMU 200 Hz with noise and a per-run bias,
+wheel speeds 100 Hz with slip noise and a 0.5 % tyre-radius error, GNSS 10 Hz with 2.5 m white
+noise plus a 1 m Gauss-Markov bias of 60 s, LiDAR cones 10 Hz with 2 cm range noise, 10 % missed
+and 5 % false). The cone set localises on the known map, as the seed assumes. The GNSS world
+frame is estimated (course against the filter's yaw), not given. Errors are taken on the pose
+handed to control (predicted to now) while the car moves.
 
-Seed 001's figures (position RMSE d, m): table 1 (dead reckoning, the better run 2: 9.17),
-table 2 (IMU + odometry, nu = 0.8: 8.77), table 3 (GNSS position, sigma = 7.5: 0.97), table 4
-(GNSS speeds: 0.39), table 5 (cones: 0.42). The last line is the worst ratio ours / seed.
+Seed 001's figures (position RMSE d, m): table 1 (dead reckoning, the better run 2: 9.17), table
+2 (IMU + odometry, nu = 0.8: 8.77), table 3 (GNSS position, sigma = 7.5: 0.97), table 4 (GNSS
+speeds: 0.39), table 5 (cones: 0.42). The last line is the worst ratio ours / seed.
 """
 
 from __future__ import annotations
@@ -25,11 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bench.synthetic_drive import Drive, make_drive
 from common.cli_types import positive_float, positive_int
-from common.config import AppConfig
 from common.conventions import wrap_angle
-from mapper.mapper import Mapper
-from mapper.synthetic import Drive, make_drive
+from orchestrator.config import AppConfig
+from orchestrator.managers import make_mapper
 
 HELP = "UKF localisation per sensor set against seed 001's tables"
 
@@ -75,7 +75,7 @@ def run_set(config: AppConfig, drive: Drive, sset: SensorSet) -> dict[str, float
     u.use_gnss_position = sset.gnss_position
     u.use_gnss_velocity = sset.gnss_velocity
     u.use_cones = sset.cones
-    mapper = Mapper(cfg)
+    mapper = make_mapper(cfg)
     if sset.cones:
         mapper.freeze(drive.cone_map())
     tr = drive.truth

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from common.cli_types import positive_int, seed_list
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "pose NEES of SLAM and UKF, pooled over simulation seeds"
 

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from common.cli_types import positive_int, positive_seconds, size_wxh
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     Baseframe,
@@ -22,6 +21,7 @@ from common.messages import (
     PoseEstimate,
     TargetStates,
 )
+from orchestrator.config import AppConfig
 
 HELP = "renderer frames/s at 1280x720 with PNG writing; control-loop p99 with rendering on"
 
@@ -115,7 +115,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
         off: list[float] = []
         on: list[float] = []
         dropped = 0
-        with Visualiser(config, Path(tmp) / "live") as vis:
+        with Visualiser(config.visualiser, Path(tmp) / "live") as vis:
             time.sleep(1.0)  # let the renderer process start
             for _ in range(args.rounds):
                 off.append(float(np.percentile(_loop_periods(args.loop_seconds, None), 99)))

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from common.cli_types import positive_int
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "replay --max of the sample recording: realtime factor and stage timings"
 TARGET_REALTIME_FACTOR = 20.0
@@ -43,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.replay import ReplayOptions, run_replay
-    from recordings.sample import sample_recording_path, summary_path
+    from orchestrator.sample import sample_recording_path, summary_path
 
     path: Path = args.recording or sample_recording_path()
     expected = None
@@ -134,7 +134,7 @@ def _profile(config: AppConfig, path: Path, top: int) -> None:
     entry_points = {
         ("main_loop.py", "tick"): "Main.tick (all stages)",
         ("mapper.py", "update"): "Mapper.update",
-        ("ekf_slam.py", "_update"): "  EKF SLAM Kalman update",
+        ("ekf.py", "update"): "  EKF SLAM Kalman update",
         ("ekf_slam.py", "update_cones"): "  EKF SLAM cone update",
         ("ukf_localiser.py", "predict"): "  UKF predict",
         ("manager.py", "ingest"): "SensorManager.ingest (parsers)",

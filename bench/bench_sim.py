@@ -13,7 +13,7 @@ from collections import defaultdict
 from typing import Any
 
 from common.cli_types import non_negative_int, positive_seconds
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 HELP = "simulated seconds per wall second, default track, every sensor on"
 
@@ -51,8 +51,6 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
 
     track = load_track(args.track)
     world = SimWorld(config, track, seed=args.seed)
-    if world.missing_models:
-        print(f"missing sensor models: {', '.join(world.missing_models)}")
     table: dict[str, float] = defaultdict(float)
     world.models = {name: _Timed(name, m, table) for name, m in world.models.items()}
     driver = ScriptedDriver(track, config.car, seed=args.seed,

@@ -7,7 +7,7 @@ input in the same run; PythonRobotics' simpler ``(I - K H) P`` is timed too and 
 ``speedup=<filterpy-form time / ours> max_abs_diff=<x and P, largest of both references>``.
 
 Ours leaves the upper triangle of P's landmark block stale after an update (the lower one is
-the covariance; :meth:`mapper.ekf_slam.EkfSlam._update`) and mirrors it when the whole ``P`` is
+the covariance; :meth:`mapper.slam.ekf.SlamEkf.update`) and mirrors it when the whole ``P`` is
 read; ``max_abs_diff`` is taken on that symmetric ``P``, and a diagnostic line times the update
 together with that read.
 """
@@ -20,12 +20,13 @@ import time
 
 import numpy as np
 
+from bench.textbook_ekf import textbook_update
 from common.cli_types import non_negative_int, positive_int
-from common.config import AppConfig
 from common.messages import ConeDetection
-from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
-from mapper.slam_blas import limit_blas_threads
-from mapper.slam_reference import textbook_update
+from mapper.slam.blas import limit_blas_threads
+from mapper.slam.ekf_slam import EkfSlam
+from mapper.slam.models import POSE_DIM, observation_model
+from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM sweep update: ours against the textbook EKF step"
 

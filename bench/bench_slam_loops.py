@@ -1,7 +1,7 @@
 """EKF SLAM loop closure on generated tracks: ``python main.py bench slam_loops --tracks 20``.
 
 For each seed, a generated trackdrive layout (``simulator.track_generator`` when present, else
-:func:`mapper.slam_sim.generated_loop`), one lap plus a little of the mapper's own test simulation
+:func:`bench.slam_sim.generated_loop`), one lap plus a little of this benchmark's own simulation
 (IMU 200 Hz, wheels 100 Hz, GPS 2.5 m at 10 Hz, LiDAR cones at 10 Hz with 2 cm range noise, 10 %
 missed and 5 % false cones, camera colours), then the map and pose metrics. Last line
 ``closed=<closed>/<tracks> worst_map_rmse_m=<x> worst_false_fraction=<y>``.
@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 import time
 
+from bench import slam_sim
 from common.cli_types import non_negative_int, positive_int
-from common.config import AppConfig
-from mapper import slam_sim
-from mapper.slam_blas import limit_blas_threads
+from mapper.slam.blas import limit_blas_threads
+from orchestrator.config import AppConfig
 
 HELP = "EKF SLAM loop closure and map quality on generated tracks"
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from common.cli_types import non_negative_int, positive_int
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 from simulator.faults import fault_spec
 
 HELP = "closed-loop trackdrive on generated tracks: laps, cones hit, best lap / minimum"

@@ -14,7 +14,7 @@ import pkgutil
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
+from orchestrator.config import AppConfig
 
 
 def _benchmarks() -> dict[str, Any]:

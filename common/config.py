@@ -1,9 +1,10 @@
-"""Configuration: typed dataclasses with the defaults in one place, overridden by TOML files.
+"""The generic TOML loader for dataclass configurations.
 
-Each Tier 2 package declares its own section in its ``config.py`` (a plain dataclass tree with
-defaults); :class:`AppConfig` gathers them. :func:`load_config` reads an override file and stops
-with ONE line (a :class:`ConfigError`) that names the file, the key and what was expected when a
-section or key is unknown, a value has the wrong type or the file is missing or unreadable.
+A configuration is a tree of dataclasses with the defaults in one place (each package declares
+its section in its own ``config.py``; Main gathers them). :func:`apply_overrides` and
+:func:`load_overrides` check a TOML table against that tree and stop with ONE line (a
+:class:`ConfigError`) naming the file, the key and what was expected when a section or key is
+unknown, a value has the wrong type or the file is missing or unreadable.
 """
 
 from __future__ import annotations
@@ -14,72 +15,12 @@ import math
 import tomllib
 import types
 import typing
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
 import tomli_w
 
 from common.errors import ConfigError
-from controller.config import ControllerConfig
-from mapper.config import MapperConfig
-from orchestrator.config import RunConfig
-from planner.config import PlannerConfig
-from recordings.config import RecordingConfig
-from sensors.config import SensorsConfig
-from simulator.config import SimConfig
-from visualiser.config import VisualiserConfig
-
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
-CONFIG_DIR = PROJECT_ROOT / "config"
-
-
-@dataclass(slots=True)
-class CarConfig:
-    """The car's geometry and limits (the default car of the issues; SI units)."""
-
-    name: str = "default"
-    wheelbase_m: float = 1.53
-    track_width_m: float = 1.2
-    length_m: float = 2.9
-    width_m: float = 1.4
-    rear_overhang_m: float = 0.65
-    """Distance from the rear axle (the vehicle origin) back to the rear of the car."""
-    cg_to_front_axle_m: float = 0.84
-    mass_kg: float = 230.0
-    yaw_inertia_kgm2: float = 120.0
-    wheel_radius_m: float = 0.2286
-    max_lateral_accel_mps2: float = 1.5 * 9.81
-    max_drive_accel_mps2: float = 8.0
-    max_brake_decel_mps2: float = 12.0
-    max_steer_rad: float = 0.52
-    """Road-wheel steering limit: 30 degrees turn the rear axle on 2.66 m, which takes the
-    rules' tightest hairpin (9 m outer diameter) with the front corner 0.2 m inside it."""
-    max_steer_rate_radps: float = 1.5
-    steer_lag_s: float = 0.05
-    top_speed_mps: float = 25.0
-    lidar_x_m: float = 1.9
-    """LiDAR position ahead of the vehicle origin (m): seed 000 mounts it low at the front."""
-    lidar_z_m: float = 0.3
-    imu_x_m: float = 0.7
-    camera_x_m: float = 0.9
-    camera_z_m: float = 1.0
-
-
-@dataclass(slots=True)
-class AppConfig:
-    """Everything configurable, one section per manager."""
-
-    car: CarConfig = field(default_factory=CarConfig)
-    sensors: SensorsConfig = field(default_factory=SensorsConfig)
-    mapper: MapperConfig = field(default_factory=MapperConfig)
-    planner: PlannerConfig = field(default_factory=PlannerConfig)
-    controller: ControllerConfig = field(default_factory=ControllerConfig)
-    sim: SimConfig = field(default_factory=SimConfig)
-    visualiser: VisualiserConfig = field(default_factory=VisualiserConfig)
-    recording: RecordingConfig = field(default_factory=RecordingConfig)
-    run: RunConfig = field(default_factory=RunConfig)
-
 
 T = TypeVar("T")
 
@@ -184,7 +125,8 @@ def _apply(obj: Any, overrides: dict[str, Any], prefix: str, source: str) -> Non
             raise ConfigError(f"{source}: {exc}") from None
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
+def read_toml(path: Path) -> dict[str, Any]:
+    """A TOML file as nested dicts; :class:`ConfigError` when it is missing or unreadable."""
     try:
         with path.open("rb") as fh:
             return tomllib.load(fh)
@@ -204,26 +146,14 @@ def apply_overrides(config: T, overrides: dict[str, Any], source: str = "<overri
     return config
 
 
-def load_config(*paths: str | Path | None) -> AppConfig:
-    """The defaults, overridden by each given TOML file in turn (``None`` entries are skipped)."""
-    config = AppConfig()
+def load_overrides(config: T, *paths: str | Path | None) -> T:
+    """Apply each TOML file in turn onto ``config`` in place (``None`` entries are skipped)."""
     for p in paths:
         if p is None:
             continue
         path = Path(p)
-        apply_overrides(config, _read_toml(path), str(path))
-    _validate(config)
+        apply_overrides(config, read_toml(path), str(path))
     return config
-
-
-def _validate(config: AppConfig) -> None:
-    """Cross-field sanity checks that a type alone cannot express."""
-    car = config.car
-    for name in ("wheelbase_m", "length_m", "width_m", "max_lateral_accel_mps2",
-                 "max_drive_accel_mps2", "max_brake_decel_mps2", "max_steer_rad", "top_speed_mps"):
-        value = getattr(car, name)
-        if not (math.isfinite(value) and value > 0.0):
-            raise ConfigError(f"config: 'car.{name}' must be a positive number, got {value!r}")
 
 
 def _to_plain(value: Any) -> Any:

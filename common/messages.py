@@ -26,7 +26,7 @@ IntArray = NDArray[Any]
 """An int64 array (converted on construction)."""
 
 
-def _frozen_array(value: object, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
+def frozen_array(value: object, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
     """Return ``value`` as a read-only contiguous numpy array of ``dtype``."""
     array: NDArray = np.ascontiguousarray(value, dtype=dtype)  # type: ignore[type-arg]
     if array is value:
@@ -225,9 +225,9 @@ class LidarPoints:
     start_s: float = math.nan
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "points", _frozen_array(self.points))
-        object.__setattr__(self, "times_s", _frozen_array(self.times_s))
-        object.__setattr__(self, "rings", _frozen_array(self.rings, np.int64))
+        object.__setattr__(self, "points", frozen_array(self.points))
+        object.__setattr__(self, "times_s", frozen_array(self.times_s))
+        object.__setattr__(self, "rings", frozen_array(self.rings, np.int64))
 
 
 Reading = (
@@ -267,7 +267,7 @@ class PoseEstimate:
     covariance: FloatArray = field(default_factory=lambda: np.zeros((3, 3)))
 
     def __post_init__(self) -> None:
-        cov = _frozen_array(self.covariance)
+        cov = frozen_array(self.covariance)
         if cov.shape != (3, 3):
             raise ValueError(f"PoseEstimate.covariance must be (3, 3), got {cov.shape}")
         object.__setattr__(self, "covariance", cov)
@@ -300,16 +300,16 @@ class ConeMap:
     ids: IntArray
 
     def __post_init__(self) -> None:
-        xy = _frozen_array(self.xy_m).reshape(-1, 2)
+        xy = frozen_array(self.xy_m).reshape(-1, 2)
         n = xy.shape[0]
         object.__setattr__(self, "xy_m", xy)
-        object.__setattr__(self, "covariance", _frozen_array(self.covariance).reshape(n, 2, 2))
+        object.__setattr__(self, "covariance", frozen_array(self.covariance).reshape(n, 2, 2))
         for name, dtype in (("colour", np.int64), ("size", np.int64), ("ids", np.int64)):
-            arr = _frozen_array(getattr(self, name), dtype)
+            arr = frozen_array(getattr(self, name), dtype)
             if arr.shape != (n,):
                 raise ValueError(f"ConeMap.{name} must be ({n},), got {arr.shape}")
             object.__setattr__(self, name, arr)
-        conf = _frozen_array(self.confidence)
+        conf = frozen_array(self.confidence)
         if conf.shape != (n,):
             raise ValueError(f"ConeMap.confidence must be ({n},), got {conf.shape}")
         object.__setattr__(self, "confidence", conf)
@@ -364,7 +364,7 @@ class Baseframe:
 
     def __post_init__(self) -> None:
         for name in ("s_m", "x_m", "y_m", "heading_rad", "curvature_1pm"):
-            object.__setattr__(self, name, _frozen_array(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -383,7 +383,7 @@ class TargetStates:
 
     def __post_init__(self) -> None:
         for name in ("t_s", "x_m", "y_m", "yaw_rad", "speed_mps", "curvature_1pm"):
-            object.__setattr__(self, name, _frozen_array(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
 
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
@@ -408,10 +408,10 @@ class Plan:
 
     def __post_init__(self) -> None:
         object.__setattr__(
-            self, "waypoints_xy_m", _frozen_array(self.waypoints_xy_m).reshape(-1, 2)
+            self, "waypoints_xy_m", frozen_array(self.waypoints_xy_m).reshape(-1, 2)
         )
         object.__setattr__(
-            self, "candidates", tuple(_frozen_array(c).reshape(-1, 2) for c in self.candidates)
+            self, "candidates", tuple(frozen_array(c).reshape(-1, 2) for c in self.candidates)
         )
 
 

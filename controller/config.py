@@ -47,8 +47,6 @@ class ControllerConfig:
     """Throttle and brake PIDs, steering law, rates."""
 
     rate_hz: float = 100.0
-    laps: int | None = None
-    """Autonomous laps before the car stops (None: take sim.laps)."""
     throttle_pid: PidConfig = field(default_factory=lambda: PidConfig(0.35, 0.15, 0.0, 0.3))
     brake_pid: PidConfig = field(default_factory=lambda: PidConfig(0.25, 0.1, 0.0, 0.2))
     use_feedforward: bool = True

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from common.config import AppConfig, CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate, RemoteStop
 from controller.config import ControllerConfig
 from controller.pid import PID, LongitudinalController, RateLimiter, clip
@@ -65,10 +65,10 @@ def make_longitudinal(config: ControllerConfig, car: CarConfig) -> LongitudinalC
 class Controller:
     """Safety supervisor, steering law, throttle and brake PIDs (see the module docstring)."""
 
-    def __init__(self, config: AppConfig) -> None:
-        self.config = config.controller
-        self.car = config.car
-        laps = self.config.laps if self.config.laps is not None else config.sim.laps
+    def __init__(self, config: ControllerConfig, car: CarConfig, laps: int) -> None:
+        """``laps``: autonomous laps before the car stops (the mission's, handed in by Main)."""
+        self.config = config
+        self.car = car
         self.safety = SafetySupervisor(self.config.safety, laps)
         self.longitudinal = make_longitudinal(self.config, self.car)
         self.steering_law = make_steering_law(self.config, self.car)

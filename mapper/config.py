@@ -1,4 +1,7 @@
-"""Configuration of the Mapper: backend choice and each estimator's parameters."""
+"""Configuration of the Mapper: backend choice and each estimator's parameters.
+
+Why the values are what they are (the measurements): docs/tuning.md.
+"""
 
 from __future__ import annotations
 
@@ -89,8 +92,7 @@ class UkfConfig:
     (tanh tyre law); False: linear in a_y."""
     lateral_slip_sigma_fraction: float = 0.5
     """The lateral constraint's sigma grows by this fraction of the modelled slip speed (the
-    autonomous laps corner and brake near the grip limit, where the steady-state tyre model is
-    rough: at 0.1 a 20 m/s braking corner pulled the pose 0.55 m off, its cones all gated out)."""
+    steady-state tyre model is rough near the grip limit)."""
     imu_bias_states: bool = True
     """Estimate the gyro z and accelerometer x, y biases as states (random walks; each sigma
     point subtracts its own): the car may drive off without a standstill to calibrate them. With
@@ -116,14 +118,13 @@ class UkfConfig:
     odometry_yaw_rate_sigma_radps: float = 0.1
     odometry_scale_sigma: float = 0.002
     """Relative tyre-radius uncertainty (a radius measured to 1 mm): a systematic speed error,
-    spread on the position as a random walk. The walk overstates a constant scale error that
-    cones or GNSS correct every 0.1 s (0.005 made the along-track sigma 2.5 times the error)."""
+    spread on the position as a random walk over ``odometry_scale_time_s``."""
     odometry_scale_time_s: float = 10.0
     odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
     odometry_gate_sigma: float = 5.0
     gnss_position_sigma_m: float = 5.0
-    """Above the receiver's 2.5 m white noise: its wandering bias and the error of the
-    estimated world frame are not in the model (seed 001 found 7.5 better than 2.5)."""
+    """GNSS position noise (m), above the receiver's 2.5 m white noise: its wandering bias and
+    the error of the estimated world frame are not in the model."""
     gnss_position_gate_sigma: float = 4.0
     gnss_speed_sigma_mps: float = 0.1
     gnss_min_speed_mps: float = 1.0
@@ -141,9 +142,6 @@ class UkfConfig:
     """Seed 001 updates only the position from cones (its update mask); True also the yaw."""
     cone_max_yaw_rate_radps: float = 10.0
     """Seed 001's suggested fix: skip cone updates when turning faster than this."""
-    start_heading_known: bool = False
-    """True: the world frame's heading in ENU is config.sim.start_heading_enu_rad (dual antenna,
-    magnetometer, surveyed start); False: estimated from GNSS course vs the filter's yaw."""
     heading_estimate_samples: int = 100
     """GNSS courses (above gnss_min_speed_mps, nearly straight) averaged for the start heading."""
     heading_estimate_max_yaw_rate_radps: float = 1.0
@@ -162,7 +160,8 @@ class UkfConfig:
     frame given by the caller is taken as exact)."""
     gnss_frame_refine: bool = True
     """With the SLAM backend: at the map freeze the frame heading is re-estimated from every
-    course of the exploration lap against the SLAM's yaw (about 0.002 rad instead of 0.005)."""
+    course of the exploration lap against the SLAM's yaw (a few times finer than the first
+    ``heading_estimate_samples``)."""
     track_alignment_distance_m: float = 20.0
     """Fallback without courses: align the GNSS track with the filter's over this travel."""
     track_alignment_heading_sigma_rad: float = 0.05
@@ -198,7 +197,7 @@ class FusionConfig:
 
 @dataclass(slots=True)
 class SlamConfig:
-    """Seed 000, section 5.3: EKF SLAM with controlled loop closure (see mapper/ekf_slam.py)."""
+    """Seed 000, section 5.3: EKF SLAM with controlled loop closure (see mapper/slam/)."""
 
     gyro_noise_density_radps_rthz: float = 3.0e-4
     """Gyro white noise (rad/s/sqrt(Hz)), with model error; Q = G diag(sigma^2 / T) G^T."""
@@ -212,10 +211,7 @@ class SlamConfig:
     initial_position_sigma_m: float = 1.0e-5
     initial_yaw_sigma_rad: float = 1.0e-5
     """The world frame IS the car's start pose (common/conventions), so the initial pose error
-    is zero by definition; the tiny sigma only keeps P positive definite. At 1 mm / 1 mrad the
-    filter carried a rigid shift and rotation of the whole map that no run can have: the
-    pose NEES fell below the band wherever the true drift was small (default track, seed 1:
-    72 % of mapping steps in the band; 94 % without it, the same estimates)."""
+    is zero by definition; the tiny sigma only keeps P positive definite."""
     initial_velocity_sigma_mps: float = 0.05
     lidar_range_sigma_m: float = 0.02
     lidar_bearing_sigma_rad: float = 0.001
@@ -249,20 +245,14 @@ class SlamConfig:
     same_point_sigma_m: float = 1.0e-3
     """The 'zero-noise' same-point measurement's floor (m): seed 5.3.2 uses none."""
     wheel_speed_sigma_mps: float = 0.07
-    """Rear wheel speed noise (m/s): sensor noise plus longitudinal slip (the simulated wheels
-    slip ~1 %: 0.07 m/s at exploration speed). At 0.05 the filter was overconfident (pose NEES
-    mean 5.1 for 3 dof, 74 % of steps in the 95 % band); at 0.07, 1.6 and 94 %."""
+    """Rear wheel speed noise (m/s): sensor noise plus longitudinal slip."""
     wheel_speed_sigma_fraction: float = 0.0
     """Rear wheel speed noise proportional to the speed (white slip noise, a fraction); the
     variance is ``wheel_speed_sigma_mps^2 + (fraction vx)^2``."""
     wheel_slip_per_mps2: float = 0.002
     """Longitudinal slip of the rear tyres per m/s^2 of the axle's longitudinal acceleration:
-    the wheels read ``vx (1 + k a_x)`` (faster when driving, slower when braking). Linear slip
-    stiffness, the slip at full grip over ``mu g``: 0.03 / (1.5 * 9.81) = 0.002 for the
-    simulated tyres (simulator/vehicle.py SLIP_AT_FULL_GRIP); fitted to the simulated rear
-    wheels' error against the true speed on gen:3: 0.0021. Unmodelled, the launch (a_x 4-6
-    m/s^2, +1.3 % wheel error) was a systematic speed error that the 0.07 m/s white noise does
-    not describe. 0: no slip model."""
+    the wheels read ``vx (1 + k a_x)`` (faster when driving, slower when braking); the slip at
+    full grip over ``mu g``. 0: no slip model."""
     lateral_velocity_sigma_mps: float = 0.05
     """Non-holonomic pseudo-measurement: the rear axle slides sideways only by its slip."""
     rear_slip_rad_per_mps2: float = 0.0073
@@ -287,9 +277,8 @@ class SlamConfig:
     use_gps: bool = True
     gps_sigma_m: float = 20.0
     """GNSS position noise for the SLAM (m), far above the receiver's 2.5 m: its error is
-    correlated over minutes (a wandering bias, and the world frame's heading estimated from
-    the course), so it only bounds gross drift and must not bend a centimetre cone map
-    (measured in the closed loop: any weight near the white-noise figure makes the pose worse)."""
+    correlated over minutes, so it only bounds gross drift and must not bend a centimetre cone
+    map."""
     gps_gate_probability: float = 0.9999
     colour_gate_m: float = 1.0
     """Camera cones vote for the nearest landmark within this distance (world frame)."""

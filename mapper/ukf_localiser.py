@@ -1,7 +1,8 @@
 """UKF localisation of seed 001 (KTH): state (x, y, yaw, vx, vy, yaw rate), IMU prediction.
 
-State ``x`` (6,): world position x_m, y_m, yaw_rad, vehicle-frame velocity vx_mps (forward),
-vy_mps (left) at the vehicle origin (rear axle), yaw_rate_radps. Covariance ``P`` (6, 6).
+State ``x`` (:mod:`mapper.ukf_state`): world position x_m, y_m, yaw_rad, vehicle-frame velocity
+vx_mps (forward), vy_mps (left) at the vehicle origin (rear axle), yaw_rate_radps; covariance
+``P`` (n, n).
 
 Prediction (seed 001, algorithm 2) with 2 n + 1 sigma points, vectorised with numpy; the IMU's
 specific force is the input. Three corrections to the seed's model: the velocity derivatives
@@ -10,8 +11,7 @@ carry the rotating-frame terms (``dvx = ax + w vy``, ``dvy = ay - w vx``; the se
 ``-w^2 r`` on x), and the yaw integrates the mean of the interval's two yaw rates (the seed's
 ``yaw += w dt`` with the previous rate lags by half an IMU period). The yaw rate follows the
 seed's blend ``w = nu w + (1 - nu) gyro``. While the car stands still at the start, the IMU is
-averaged for its gyro and accelerometer biases (a static calibration) and the state is held at
-rest.
+averaged for its biases (:mod:`mapper.imu_calibration`) and the state is held at rest.
 
 Optional states after the six: the gyro z and accelerometer x, y biases
 (``imu_bias_states``), and the GNSS world frame's heading offset (``gnss_heading_state``, a
@@ -23,15 +23,8 @@ Mahalanobis rejection as robot_localization (``*_gate_sigma`` in sigma units; co
 ``stats``):
 
 - odometry: (vx, yaw rate) from the rear wheels (or the steering angle);
-- GNSS position (x, y) in the world frame (turned by the heading offset about the start);
-- GNSS velocity and track, above ``gnss_min_speed_mps`` only: z = (course, speed) with the
-  unscented transform of h(x) = (yaw + atan2(vy + w a, vx) + offset, |(vx, vy + w a)|),
-  a = antenna offset;
-- cones against a known map in the seed's *position form*: each detection d paired with its map
-  cone m gives the car's position z = m - R(yaw_hat) d; the update is masked to the position
-  (seed 001: "only the position is updated"), with the gain computed from the linearisation
-  H = [I, dR/dyaw d] so that the yaw uncertainty is accounted for, and the covariance updated in
-  Joseph form (exact for the masked, sub-optimal gain). One batched update per sweep.
+- GNSS position and twist (speed, track) (:mod:`mapper.ukf_gnss`);
+- cones against a known map in the seed's position form (:mod:`mapper.ukf_cones`);
 - a zero lateral speed pseudo-measurement at the rear axle (seed 001: "the lateral speed will be
   assumed to be zero"), at most every 20 ms.
 
@@ -49,9 +42,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.conventions import wrap_angle
 from common.messages import (
     ConeDetection,
@@ -61,18 +53,16 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
+from mapper import ukf_gnss
 from mapper.config import UkfConfig
-from mapper.fusion import rear_slip_velocity
+from mapper.imu_calibration import StaticCalibration
+from mapper.motion import rear_slip_velocity
+from mapper.ukf_cones import ConeMapUpdate
+from mapper.ukf_state import IBAX, IBAY, IBG, IVX, IVY, IW, IX, IY, IYAW, N_BIAS, N_STATE
 
 log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
-N_STATE = 6
-"""The pose and velocity states; with ``UkfConfig.imu_bias_states`` three IMU bias states follow,
-then with ``UkfConfig.gnss_heading_state`` the GNSS frame's heading offset (the last state)."""
-N_BIAS = 3
-IX, IY, IYAW, IVX, IVY, IW = range(N_STATE)
-IBG, IBAX, IBAY = range(N_STATE, N_STATE + N_BIAS)
 
 
 class UkfLocaliser:
@@ -100,13 +90,10 @@ class UkfLocaliser:
         self.stats: dict[str, Counter[str]] = {}
         self.gyro_bias_radps = 0.0
         self.accel_bias_mps2 = np.zeros(2)
-        self._calib_sum = np.zeros(3)
-        self._calib_sq = np.zeros(3)
-        self._calib_n = 0
+        self._calibration = StaticCalibration(config.static_gyro_threshold_radps,
+                                              config.static_accel_threshold_mps2)
         self.calibrating = config.static_calibration
-        self._calib_ref: FloatArray | None = None
-        self._tree: cKDTree | None = None
-        self._tree_map: ConeMap | None = None
+        self._cones = ConeMapUpdate()
         self._map: ConeMap | None = None
         self.map_cov: FloatArray | None = None
         """The consider map's error covariance (2 M, 2 M), x0 y0 x1 y1 ... (see :meth:`set_map`)."""
@@ -312,21 +299,10 @@ class UkfLocaliser:
 
     def _calibrate(self, imu: ImuSample) -> bool:
         """Static calibration: True while the car still stands (sample absorbed)."""
-        cfg = self.config
-        v = np.array([imu.gyro_z_radps, imu.accel_x_mps2, imu.accel_y_mps2])
-        if self._calib_ref is None:
-            self._calib_ref = v.copy()
-        mean = self._calib_sum / self._calib_n if self._calib_n else self._calib_ref
-        moving = (abs(v[0] - mean[0]) > cfg.static_gyro_threshold_radps
-                  or float(np.hypot(v[1] - mean[1], v[2] - mean[2]))
-                  > cfg.static_accel_threshold_mps2)
-        if moving:
-            self._end_calibration()
-            return False
-        self._calib_sum += v
-        self._calib_sq += v * v
-        self._calib_n += 1
-        return True
+        if self._calibration.still(imu):
+            return True
+        self._end_calibration()
+        return False
 
     def _end_calibration(self) -> None:
         """The car moves: the biases are the means of the standstill samples (if enough); with
@@ -334,15 +310,15 @@ class UkfLocaliser:
         the calibration's standard error."""
         cfg = self.config
         self.calibrating = False
-        n = self._calib_n
+        n = self._calibration.count
         if n < cfg.static_min_samples:
             log.info("IMU static calibration skipped: car moved after %d samples", n)
             return
-        mean = self._calib_sum / n
+        mean = self._calibration.mean()
         self.gyro_bias_radps = float(mean[0])
         self.accel_bias_mps2 = mean[1:].copy()
         if self.nb:
-            var = np.maximum(self._calib_sq / n - mean * mean, 1e-12) / n
+            var = self._calibration.variance_of_mean()
             b = slice(N_STATE, N_STATE + self.nb)
             self.x[b] = 0.0
             self._set_block(b, np.diag(var))
@@ -392,7 +368,7 @@ class UkfLocaliser:
             H[0, IVX] = -d_vx
             H[0, IW] = -d_w
             sigma = cfg.lateral_velocity_sigma_mps + cfg.lateral_slip_sigma_fraction * abs(vy_slip)
-            self._update_linear("lateral", np.array([vy_slip - self.x[IVY]]), H,
+            self.update_linear("lateral", np.array([vy_slip - self.x[IVY]]), H,
                                 np.array([[sigma**2]]), gate=math.inf)
 
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
@@ -467,7 +443,7 @@ class UkfLocaliser:
 
     # -- updates ------------------------------------------------------------------------------
 
-    def _update_linear(self, sensor: str, y: FloatArray, H: FloatArray, R: FloatArray,
+    def update_linear(self, sensor: str, y: FloatArray, H: FloatArray, R: FloatArray,
                        gate: float, mask: Sequence[int] | None = None) -> bool:
         """Kalman update with innovation ``y`` (m,), ``H`` (m, 6), ``R`` (m, m); Mahalanobis
         gate in sigma units; ``mask`` = state indices the update may change (Joseph form)."""
@@ -503,7 +479,7 @@ class UkfLocaliser:
         self.count(sensor, "applied")
         return True
 
-    def _update_unscented(self, sensor: str, z: FloatArray,
+    def update_unscented(self, sensor: str, z: FloatArray,
                           h: Callable[[FloatArray], FloatArray], R: FloatArray,
                           angle_rows: Sequence[int], gate: float) -> bool:
         """Seed 001's unscented update (alg. 1, lines 9-18) for a nonlinear ``h``."""
@@ -570,213 +546,29 @@ class UkfLocaliser:
             H = _row(IVX, self.n)
             y = np.array([v - self.x[IVX]])
             R = np.array([[cfg.odometry_speed_sigma_mps**2]])
-        return self._update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
+        return self.update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
 
     def update_gnss_position(self, xy_world_m: FloatArray, cov: FloatArray | None = None) -> bool:
-        """Seed 001's GNSS pose model: z = (x, y) in the world frame, ``cov`` (2, 2) or the
-        configured sigma."""
-        cfg = self.config
-        if not cfg.use_gnss_position:
-            return False
-        z = np.asarray(xy_world_m, np.float64).reshape(2)
-        if not np.all(np.isfinite(z)):
-            self.count("gnss_position", "rejected_invalid")
-            return False
-        R = np.eye(2) * cfg.gnss_position_sigma_m**2 if cov is None else np.asarray(cov)
-        H = np.zeros((2, self.n))
-        H[0, IX] = 1.0
-        H[1, IY] = 1.0
-        predicted = self.x[:2].copy()
-        if self.ih is not None:
-            # The frame turned by the offset b about the start: h = p + b (-y, x) (small b).
-            px, py, b = float(self.x[IX]), float(self.x[IY]), float(self.x[self.ih])
-            predicted += b * np.array([-py, px])
-            H[0, self.ih] = -py
-            H[1, self.ih] = px
-            H[0, IY] = -b
-            H[1, IX] = b
-        return self._update_linear("gnss_position", z - predicted, H, R,
-                                   cfg.gnss_position_gate_sigma)
+        """Seed 001's GNSS pose model (:func:`mapper.ukf_gnss.update_position`)."""
+        return ukf_gnss.update_position(self, xy_world_m, cov)
 
     def update_gnss_velocity(self, speed_mps: float, course_world_rad: float,
                              speed_sigma_mps: float | None = None) -> bool:
-        """Seed 001's GNSS twist model: speed and track (course over ground, world yaw).
-
-        Only above ``gnss_min_speed_mps``; the track's variance is the seed's
-        ``sigma_v^2 / v^2`` (floored)."""
-        cfg = self.config
-        if not cfg.use_gnss_velocity:
-            return False
-        if not (math.isfinite(speed_mps) and math.isfinite(course_world_rad)):
-            self.count("gnss_velocity", "rejected_invalid")
-            return False
-        if speed_mps < cfg.gnss_min_speed_mps:
-            self.count("gnss_velocity", "skipped_slow")
-            return False
-        sv = cfg.gnss_speed_sigma_mps if speed_sigma_mps is None else speed_sigma_mps
-        s_track = max(sv / speed_mps, cfg.gnss_track_sigma_floor_rad)
-        a = cfg.gnss_antenna_x_m
-        ih = self.ih
-
-        def h(chi: FloatArray) -> FloatArray:
-            vy = chi[:, IVY] + chi[:, IW] * a
-            course = chi[:, IYAW] + np.arctan2(vy, chi[:, IVX])
-            if ih is not None:
-                course = course + chi[:, ih]
-            return np.stack([course, np.hypot(chi[:, IVX], vy)], axis=1)
-
-        z = np.array([course_world_rad, speed_mps])
-        R = np.diag([s_track**2, sv**2])
-        return self._update_unscented("gnss_velocity", z, h, R, (0,),
-                                      cfg.gnss_velocity_gate_sigma)
+        """Seed 001's GNSS twist model (:func:`mapper.ukf_gnss.update_velocity`)."""
+        return ukf_gnss.update_velocity(self, speed_mps, course_world_rad, speed_sigma_mps)
 
     def update_cones_on_map(self, cones: Sequence[ConeDetection], cone_map: ConeMap,
                             cones_xy_m: FloatArray | None = None,
                             full_update: bool = False,
                             cone_sigma_m: float | None = None) -> int:
-        """Seed 001's cones model against a known map; returns how many cones were applied.
+        """Seed 001's cones model against a known map (:mod:`mapper.ukf_cones`); returns how
+        many cones were applied.
 
         ``cones`` are vehicle-frame detections (their positions may be given motion-compensated
-        as ``cones_xy_m`` (N, 2)); each is paired with the nearest map cone within
-        ``cone_association_m`` of its predicted world position, gated one by one (Mahalanobis),
-        then all go in one batched, position-masked update (``full_update``: an unmasked one,
-        yaw and IMU biases too); ``cone_sigma_m`` overrides the configured detection noise.
+        as ``cones_xy_m`` (N, 2)); ``full_update`` also corrects the yaw and the IMU biases;
+        ``cone_sigma_m`` overrides the configured detection noise.
         """
-        cfg = self.config
-        if not cfg.use_cones or len(cone_map) == 0 or not cones:
-            return 0
-        if abs(self.x[IW]) > cfg.cone_max_yaw_rate_radps:
-            self.count("cones", "skipped_turning")
-            return 0
-        if self._tree_map is not cone_map:
-            self._tree = cKDTree(cone_map.xy_m)
-            self._tree_map = cone_map
-        assert self._tree is not None
-        d = (np.array([(c.x_m, c.y_m) for c in cones], np.float64) if cones_xy_m is None
-             else np.asarray(cones_xy_m, np.float64).reshape(-1, 2))
-        yaw = float(self.x[IYAW])
-        c, s = math.cos(yaw), math.sin(yaw)
-        rot_d = np.stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1]], axis=1)
-        predicted = rot_d + self.x[:2]
-        dist, idx = self._tree.query(predicted, k=1, distance_upper_bound=cfg.cone_association_m)
-        paired = np.isfinite(dist)
-        if not np.any(paired):
-            self.count("cones", "unassociated")
-            return 0
-        n_unpaired = int(np.count_nonzero(~paired))
-        if n_unpaired:
-            self.stats.setdefault("cones", Counter())["unassociated"] += n_unpaired
-        m = cone_map.xy_m[idx[paired]]
-        rd = rot_d[paired]
-        z = m - rd  # seed 001's position form: where the car is, seen from each cone
-        y_all = z - self.x[:2]
-        # With m = p + R(yaw) d + noise: z - p_hat ~ (p - p_hat) + J (yaw - yaw_hat), where
-        # J = dR/dyaw d = (-rd_y, rd_x): H = [I, J] on (x, y, yaw).
-        J = np.stack([-rd[:, 1], rd[:, 0]], axis=1)
-        sigma = cfg.cone_sigma_m if cone_sigma_m is None else cone_sigma_m
-        mask: tuple[int, ...] | None = (IX, IY, IYAW) if cfg.cone_update_heading else (IX, IY)
-        if full_update:
-            mask = None
-        if self.PxL is not None and cone_map is self._map:
-            return self._update_cones_consider(y_all, J, idx[paired], sigma, mask)
-        R_each = sigma**2 * np.eye(2) + cone_map.covariance[idx[paired]]
-        P3 = self.P[:3, :3]
-        accepted = []
-        for i in range(z.shape[0]):
-            Hi = np.array([[1.0, 0.0, J[i, 0]], [0.0, 1.0, J[i, 1]]])
-            Si = Hi @ P3 @ Hi.T + R_each[i]
-            yi = y_all[i]
-            d2 = float(yi @ np.linalg.solve(Si, yi))
-            if d2 <= cfg.cone_gate_sigma**2:
-                accepted.append(i)
-            else:
-                self.count("cones", "rejected")
-        if not accepted:
-            return 0
-        k = len(accepted)
-        H = np.zeros((2 * k, self.n))
-        R = np.zeros((2 * k, 2 * k))
-        for j, i in enumerate(accepted):
-            H[2 * j, IX] = 1.0
-            H[2 * j + 1, IY] = 1.0
-            H[2 * j, IYAW] = J[i, 0]
-            H[2 * j + 1, IYAW] = J[i, 1]
-            R[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R_each[i]
-        y = y_all[accepted].reshape(-1)
-        ok = self._update_linear("cones_batch", y, H, R, gate=math.inf, mask=mask)
-        if ok:
-            self.stats.setdefault("cones", Counter())["applied"] += k
-        return k if ok else 0
-
-    def _update_cones_consider(self, y_all: FloatArray, J: FloatArray,
-                               landmarks: NDArray[np.intp], sigma_m: float,
-                               mask: tuple[int, ...] | None) -> int:
-        """The cone update with the map's errors as consider states (see :meth:`set_map`).
-
-        ``y_all`` (p, 2) innovations z - p_hat, ``J`` (p, 2) their yaw derivatives, ``landmarks``
-        (p,) the paired map cones. ``y = H_x e_x - e_L[cone] + v``: its covariance
-        ``S = H P H^T - H P_xL_c - P_Lx_c H^T + P_LL_cc + sigma^2 I``; each detection is gated on
-        its own 2 x 2 block, the accepted go in one update with the (masked) gain
-        ``K = M S^-1``, ``M = cov(e_x, y) = P H^T - P_xL_c``, the covariance in the form exact
-        for any gain ``P - K M^T - M K^T + K S K^T``, and ``P_xL -= K cov(y, e_L)``.
-        """
-        cfg = self.config
-        assert self.PxL is not None and self.map_cov is not None
-        p = y_all.shape[0]
-        Hx = np.zeros((2 * p, self.n))
-        Hx[0::2, IX] = 1.0
-        Hx[1::2, IY] = 1.0
-        Hx[0::2, IYAW] = J[:, 0]
-        Hx[1::2, IYAW] = J[:, 1]
-        cols = np.empty(2 * p, np.intp)
-        cols[0::2] = 2 * landmarks
-        cols[1::2] = 2 * landmarks + 1
-        pxl_c = self.PxL[:, cols]
-        M = self.P @ Hx.T - pxl_c
-        B = Hx @ pxl_c
-        S = Hx @ M - B.T + self.map_cov[np.ix_(cols, cols)]
-        S[np.diag_indices(2 * p)] += sigma_m**2
-        S = 0.5 * (S + S.T)
-        gate2 = cfg.cone_gate_sigma**2
-        accepted = []
-        for i in range(p):
-            yi = y_all[i]
-            Si = S[2 * i:2 * i + 2, 2 * i:2 * i + 2]
-            det = Si[0, 0] * Si[1, 1] - Si[0, 1] * Si[1, 0]
-            d2 = (Si[1, 1] * yi[0] * yi[0] - 2.0 * Si[0, 1] * yi[0] * yi[1]
-                  + Si[0, 0] * yi[1] * yi[1]) / det if det > 0.0 else math.inf
-            if d2 <= gate2:
-                accepted.append(i)
-            else:
-                self.count("cones", "rejected")
-        if not accepted:
-            return 0
-        rows = np.empty(2 * len(accepted), np.intp)
-        rows[0::2] = 2 * np.asarray(accepted)
-        rows[1::2] = rows[0::2] + 1
-        Sa = S[np.ix_(rows, rows)]
-        Ma = M[:, rows]
-        try:
-            cho = scipy.linalg.cho_factor(Sa, lower=True, check_finite=False)
-        except (np.linalg.LinAlgError, ValueError):
-            self.count("cones_batch", "rejected_singular")
-            return 0
-        K = scipy.linalg.cho_solve(cho, Ma.T, check_finite=False).T
-        if mask is not None:
-            drop = np.ones(self.n, bool)
-            drop[list(mask)] = False
-            K[drop] = 0.0
-        self.x = self.x + K @ y_all[accepted].reshape(-1)
-        self.x[IYAW] = wrap_angle(float(self.x[IYAW]))
-        KM = K @ Ma.T
-        P = self.P - KM - KM.T + K @ Sa @ K.T
-        self.P = 0.5 * (P + P.T)
-        c_yl = Hx[rows] @ self.PxL - self.map_cov[cols[rows]]
-        self.PxL = self.PxL - K @ c_yl
-        self.count("cones_batch", "applied")
-        k = len(accepted)
-        self.stats.setdefault("cones", Counter())["applied"] += k
-        return k
+        return self._cones.update(self, cones, cone_map, cones_xy_m, full_update, cone_sigma_m)
 
 
 def _wrap(a: FloatArray) -> FloatArray:

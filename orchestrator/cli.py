@@ -1,4 +1,4 @@
-"""Subcommands of Tier 1: ``sim``, ``replay``, ``record``, ``drive`` and ``emulate``."""
+"""Subcommands of Tier 1: ``sim``, ``replay``, ``record``, ``drive``, ``emulate`` and ``render``."""
 
 from __future__ import annotations
 
@@ -13,8 +13,10 @@ from common.cli_types import (
     positive_float,
     positive_int,
     positive_seconds,
+    size_wxh,
 )
-from common.config import AppConfig
+from common.errors import FsdError
+from orchestrator.config import AppConfig
 from simulator.faults import fault_spec
 
 
@@ -27,7 +29,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     sim.add_argument("--track", help="'default', 'gen:SEED', or a track file (.csv EUFS, .yaml "
                      "FSSIM)")
     sim.add_argument("--laps", type=positive_int,
-                     help="autonomous laps, >= 1 (default: config sim.laps)")
+                     help="autonomous laps, >= 1 (default: config mission.laps)")
     sim.add_argument("--seed", type=non_negative_int,
                      help="random seed of the simulated world (>= 0)")
     sim.add_argument("--mapper", choices=("slam", "smoother"), help="mapping backend")
@@ -72,7 +74,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
         help="drive the real car: live sensors, commands out on CAN, recording on",
     )
     drive.add_argument("--laps", type=positive_int,
-                       help="autonomous laps, >= 1 (default: config sim.laps)")
+                       help="autonomous laps, >= 1 (default: config mission.laps)")
     drive.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     drive.add_argument("--no-record", dest="record", action="store_false", default=True)
     drive.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
@@ -102,6 +104,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                          help="random seed of the simulated world (>= 0)")
     emulate.set_defaults(func=_emulate)
 
+    _register_render(subparsers, common)
+
 
 def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.sim import SimOptions, run_sim
@@ -126,7 +130,7 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     import json
 
     from orchestrator.replay import ReplayOptions, run_replay
-    from recordings.sample import resolve_recording
+    from orchestrator.sample import resolve_recording
 
     config_file = Path(args.config) if args.config else None
     recording = resolve_recording(args.recording)
@@ -180,7 +184,10 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
 
     from simulator.emulator import EmulatorOptions, HardwareEmulator
 
-    options = EmulatorOptions(track=args.track, seconds=args.seconds,
+    options = EmulatorOptions(track=args.track,
+                              exploration_overrun_m=config.run.exploration_overrun_m,
+                              handover_standstill_s=config.run.handover_standstill_s,
+                              seconds=args.seconds,
                               write_config=args.write_config, summary=args.summary,
                               workdir=args.workdir, seed=args.seed)
     emulator = HardwareEmulator(config, options)
@@ -189,4 +196,39 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
           f"{emulator.lidar_port}, camera udp {emulator.camera_port}", flush=True)
     summary = emulator.run()
     print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _register_render(subparsers: Any, common: argparse.ArgumentParser) -> None:
+    """Add ``render``."""
+    parser = subparsers.add_parser("render", parents=[common],
+                                   help="draw a recording's map states as PNG frames (and a movie)")
+    parser.add_argument("recording", type=Path, help="an .mcap recording")
+    parser.add_argument("--out", type=Path, required=True, help="folder for the frames")
+    parser.add_argument("--size", type=size_wxh, default=None,
+                        help="frame size WxH (default 1280x720)")
+    parser.add_argument("--fps", type=positive_float, default=None,
+                        help="frames per second of recording time (default: every map state)")
+    parser.add_argument("--view", choices=("track", "follow"), default=None,
+                        help="whole track, or follow the car")
+    parser.add_argument("--movie", type=Path, default=None,
+                        help="also write a movie (.mp4 or .gif)")
+    parser.set_defaults(func=_render)
+
+
+def _render(args: argparse.Namespace, config: AppConfig) -> int:
+    from orchestrator.render import render_recording
+
+    if args.size is not None:
+        config.visualiser.width_px, config.visualiser.height_px = args.size
+    if args.view is not None:
+        config.visualiser.view = args.view
+    try:
+        result = render_recording(args.recording, args.out, config.visualiser, fps=args.fps,
+                                  movie=args.movie, progress=sys.stderr.isatty())
+    except FsdError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(f"{result['frames']} frames in {args.out} ({result['fps']:.1f} frames/s)"
+          + (f", movie {result['movie']}" if result.get("movie") else ""))
     return 0

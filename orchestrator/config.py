@@ -1,8 +1,27 @@
-"""Configuration of the Main orchestrator: layer rates and run limits."""
+"""The application's configuration, assembled by Main from the packages' sections.
+
+Each package declares its own section in its ``config.py``; Main owns two more: ``run`` (how it
+schedules the layers, when a run ends) and ``mission`` (what the car is asked to do, handed to
+the managers that need it). :func:`load_config` applies TOML override files onto the defaults
+(``common.config``) and checks what a type alone cannot.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from common.car import CarConfig
+from common.config import load_overrides
+from common.errors import ConfigError
+from controller.config import ControllerConfig
+from mapper.config import MapperConfig
+from planner.config import PlannerConfig
+from recordings.config import RecordingConfig
+from sensors.config import SensorsConfig
+from simulator.config import SimConfig
+from visualiser.config import VisualiserConfig
 
 
 @dataclass(slots=True)
@@ -27,3 +46,48 @@ class RunConfig:
     """Record raw sensor data and outputs to OUT/recording.mcap."""
     stale_input_s: float = 0.5
     """Readings older than this when they reach Main are rejected (counted)."""
+
+
+@dataclass(slots=True)
+class MissionConfig:
+    """What the car is asked to do, and what is known of its start: Main hands these to the
+    managers that need them (the Controller its laps, the Mapper the start heading)."""
+
+    laps: int = 10
+    """Autonomous laps before the car stops."""
+    start_heading_enu_rad: float | None = None
+    """The world frame's heading in ENU (rad, counter-clockwise from east) when it is known (a
+    dual antenna, a magnetometer, a surveyed start); None: the Mapper estimates it from GNSS."""
+
+
+@dataclass(slots=True)
+class AppConfig:
+    """Everything configurable, one section per manager, plus the car, the run and the mission."""
+
+    car: CarConfig = field(default_factory=CarConfig)
+    sensors: SensorsConfig = field(default_factory=SensorsConfig)
+    mapper: MapperConfig = field(default_factory=MapperConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    controller: ControllerConfig = field(default_factory=ControllerConfig)
+    sim: SimConfig = field(default_factory=SimConfig)
+    visualiser: VisualiserConfig = field(default_factory=VisualiserConfig)
+    recording: RecordingConfig = field(default_factory=RecordingConfig)
+    run: RunConfig = field(default_factory=RunConfig)
+    mission: MissionConfig = field(default_factory=MissionConfig)
+
+
+def load_config(*paths: str | Path | None) -> AppConfig:
+    """The defaults, overridden by each given TOML file in turn (``None`` entries are skipped)."""
+    config = load_overrides(AppConfig(), *paths)
+    validate(config)
+    return config
+
+
+def validate(config: AppConfig) -> None:
+    """Cross-field sanity checks that a type alone cannot express."""
+    car = config.car
+    for name in ("wheelbase_m", "length_m", "width_m", "max_lateral_accel_mps2",
+                 "max_drive_accel_mps2", "max_brake_decel_mps2", "max_steer_rad", "top_speed_mps"):
+        value = getattr(car, name)
+        if not (math.isfinite(value) and value > 0.0):
+            raise ConfigError(f"config: 'car.{name}' must be a positive number, got {value!r}")

@@ -46,7 +46,6 @@ from typing import Any
 import numpy as np
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
@@ -56,11 +55,12 @@ from common.messages import (
     RemoteStop,
     SourceHealth,
 )
-from controller.controller import Controller
+from orchestrator.config import AppConfig
 from orchestrator.live_link import Link, link_pair
-from orchestrator.live_worker import control_config, worker_main
+from orchestrator.live_worker import control_sensors, worker_main
 from orchestrator.main_loop import StageTimes
-from sensors.manager import SOURCES, SensorManager
+from orchestrator.managers import make_controller, make_sensors
+from sensors.manager import SOURCES
 
 log = logging.getLogger(__name__)
 
@@ -162,10 +162,10 @@ class LiveMain:
         self.config = config
         self.options = options
         if options.laps is not None:
-            config.controller.laps = options.laps
+            config.mission.laps = options.laps
         self.clock = RealClock()
-        self.sensors = SensorManager(control_config(config), self.clock)
-        self.controller = Controller(config)
+        self.sensors = make_sensors(config, self.clock, control_sensors(config))
+        self.controller = make_controller(config)
         options.out_dir.mkdir(parents=True, exist_ok=True)
         sc = config.sensors
         self.remote_sources = tuple(s for s in SOURCES
@@ -268,6 +268,8 @@ class LiveMain:
                 self._on_message(message)
             time.sleep(0.01)
         process.join(max(1.0, end - time.monotonic()))
+        for message in link.poll():  # what it sent before it went (a send error closes early)
+            self._on_message(message)
         if process.is_alive():
             log.error("the executive process did not end: terminating it")
             process.terminate()
@@ -297,7 +299,7 @@ class LiveMain:
                 # The run's clock starts now, with the sensors (a sensor stamping its own time,
                 # as the camera does, counts from when the stack opened the bus).
                 self.clock = RealClock()
-                self.sensors = SensorManager(control_config(self.config), self.clock)
+                self.sensors = make_sensors(self.config, self.clock, control_sensors(self.config))
                 assert self._link is not None
                 self._link.send_nowait(("start", self.clock))
                 previous_policy = set_realtime_priority(self.options.realtime_priority)

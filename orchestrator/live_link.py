@@ -40,6 +40,9 @@ class Link:
         self.sock = sock
         self.max_outbox_bytes = int(max_outbox_bytes)
         self.closed = False
+        self._eof = False
+        """The peer's stream has ended (a send error closes the link, but what the peer sent
+        before it went is still read)."""
         self.sent = 0
         self.received = 0
         self.dropped = 0
@@ -64,6 +67,7 @@ class Link:
             if size > MAX_MESSAGE_BYTES:
                 log.error("link: message of %d bytes announced: corrupt stream, closing", size)
                 self._mark_closed()
+                self._eof = True
                 break
             end = pos + _HEADER.size + size
             if len(buf) < end:
@@ -109,16 +113,18 @@ class Link:
 
     def poll(self) -> list[Any]:
         """Every complete message that has arrived, without waiting."""
-        while not self.closed:
+        while not self._eof:
             try:
                 data = self.sock.recv(_READ_CHUNK, socket.MSG_DONTWAIT)
             except (BlockingIOError, InterruptedError):
                 break
             except OSError:
                 self._mark_closed()
+                self._eof = True
                 break
             if not data:
                 self._mark_closed()
+                self._eof = True
                 break
             self._inbox += data
             if len(data) < _READ_CHUNK:

@@ -41,7 +41,6 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     CanFrame,
@@ -51,10 +50,12 @@ from common.messages import (
     Reading,
     RemoteStop,
 )
+from orchestrator.config import AppConfig
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
 from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
+from sensors.config import SensorsConfig
 
 if TYPE_CHECKING:
     from orchestrator.live import DriveOptions
@@ -67,19 +68,18 @@ IDLE_SLEEP_S = 0.002
 """The executive layer's wait when no sensor data came."""
 
 
-def worker_config(config: AppConfig) -> AppConfig:
-    """The configuration of the worker's Sensor Manager: every source but CAN."""
-    sensors = dataclasses.replace(config.sensors,
-                                  can=dataclasses.replace(config.sensors.can, enabled=False))
-    return dataclasses.replace(config, sensors=sensors)
+def worker_sensors(config: AppConfig) -> SensorsConfig:
+    """The sensors section of the worker's Sensor Manager: every source but CAN."""
+    return dataclasses.replace(config.sensors,
+                               can=dataclasses.replace(config.sensors.can, enabled=False))
 
 
-def control_config(config: AppConfig) -> AppConfig:
-    """The configuration of the control process's Sensor Manager: CAN alone."""
+def control_sensors(config: AppConfig) -> SensorsConfig:
+    """The sensors section of the control process's Sensor Manager: CAN alone."""
     sc = config.sensors
     off = {name: dataclasses.replace(getattr(sc, name), enabled=False)
            for name in ("gps", "imu", "lidar", "camera")}
-    return dataclasses.replace(config, sensors=dataclasses.replace(sc, **off))
+    return dataclasses.replace(sc, **off)
 
 
 def _merge_by_time(a: list[Any], b: list[Any]) -> list[Any]:
@@ -98,19 +98,16 @@ class Worker:
 
     def __init__(self, config: AppConfig, options: DriveOptions, clock: RealClock,
                  link: Link) -> None:
-        from mapper.mapper import Mapper
-        from planner.path_planner import PathPlanner
+        from orchestrator.managers import make_mapper, make_planner, make_sensors
         from recordings.recorder import Recorder
-        from sensors.manager import SensorManager
 
         self.config = config
         self.options = options
         self.clock = clock
         self.link = link
-        self.sensors = SensorManager(worker_config(config), clock)
-        self._sensor_manager = SensorManager
-        self.mapper = Mapper(config) if options.control else None
-        self.planner = PathPlanner(config) if options.control else None
+        self.sensors = make_sensors(config, clock, worker_sensors(config))
+        self.mapper = make_mapper(config) if options.control else None
+        self.planner = make_planner(config) if options.control else None
         self.hasher = HashSink()
         self.recorder: Any = None
         if options.record:
@@ -119,7 +116,7 @@ class Worker:
         if options.render and options.control:
             from visualiser.visualiser import Visualiser
 
-            self.visualiser = Visualiser(config, options.out_dir / "frames")
+            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
         self.times = StageTimes()
         self.stop = threading.Event()
         self.errors: list[str] = []
@@ -274,7 +271,9 @@ class Worker:
     def _start(self, clock: RealClock) -> None:
         """Take the run's clock (it starts with the sensors) and start the receivers."""
         self.clock = clock
-        self.sensors = self._sensor_manager(worker_config(self.config), clock)
+        from orchestrator.managers import make_sensors
+
+        self.sensors = make_sensors(self.config, clock, worker_sensors(self.config))
         self.sensors.start()
 
     def run(self) -> None:

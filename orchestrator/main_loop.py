@@ -29,7 +29,6 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
@@ -43,6 +42,7 @@ from common.messages import (
     Reading,
     RemoteStop,
 )
+from orchestrator.config import AppConfig
 from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
 
 log = logging.getLogger(__name__)

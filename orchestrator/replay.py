@@ -24,14 +24,14 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig, apply_overrides
+from common.config import apply_overrides
 from common.conventions import wrap_angles
 from common.errors import ConfigError, RecordingError
 from common.messages import CanFrame, Health, RawBytes
-from controller.controller import Controller
 from mapper.evaluation import evaluate_map
-from mapper.mapper import Mapper
+from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
+from orchestrator.managers import make_controller, make_mapper, make_planner
 from orchestrator.outputs import HashSink
 from orchestrator.replay_front import (
     FrontEndTimes,
@@ -39,7 +39,6 @@ from orchestrator.replay_front import (
     tick_inputs,
     tick_inputs_in_process,
 )
-from planner.path_planner import PathPlanner
 from recordings.player import Player
 from recordings.reader import RecordingReader
 from recordings.topics import COMMAND
@@ -100,10 +99,28 @@ def recorded_config(path: Path) -> dict[str, Any] | None:
     if not text:
         return None
     try:
-        return tomllib.loads(text)
+        return upgrade_config(tomllib.loads(text))
     except tomllib.TOMLDecodeError as exc:
         log.warning("%s: unreadable recorded configuration (%s); using the given one", path, exc)
         return None
+
+
+def upgrade_config(recorded: dict[str, Any]) -> dict[str, Any]:
+    """A configuration recorded before the mission section existed, in today's keys (in place):
+    ``sim.laps`` and ``controller.laps`` are ``mission.laps``; ``mapper.ukf.start_heading_known``
+    became ``mission.start_heading_enu_rad`` (the simulated world's heading when it was true)."""
+    sim = recorded.get("sim", {})
+    mission = recorded.setdefault("mission", {})
+    if "laps" in sim:
+        mission.setdefault("laps", sim.pop("laps"))
+    controller_laps = recorded.get("controller", {}).pop("laps", None)
+    if controller_laps is not None:
+        mission["laps"] = controller_laps
+    if recorded.get("mapper", {}).get("ukf", {}).pop("start_heading_known", False):
+        mission.setdefault("start_heading_enu_rad", sim.get("start_heading_enu_rad", 0.0))
+    if not mission:
+        del recorded["mission"]
+    return recorded
 
 
 def replay_config(config: AppConfig, path: Path, config_file: Path | None) -> AppConfig:
@@ -147,9 +164,10 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     if options.render and options.out_dir is not None:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config, options.out_dir / "frames")
-    main = Main(config, sensors=sensors, mapper=Mapper(config), planner=PathPlanner(config),
-                controller=Controller(config), outputs=[hasher], visualiser=visualiser)
+        visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+    main = Main(config, sensors=sensors, mapper=make_mapper(config),
+                planner=make_planner(config), controller=make_controller(config),
+                outputs=[hasher], visualiser=visualiser)
 
     truth_t: list[float] = []
     truth_pose: list[tuple[float, float, float]] = []

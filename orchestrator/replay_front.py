@@ -28,12 +28,14 @@ from typing import Any
 
 from common import messages
 from common.clock import SimClock
-from common.config import AppConfig
 from common.errors import RecordingError
 from common.messages import CanFrame, GroundTruth, Health, RawBytes, Reading
+from common.track import TrackLayout
+from orchestrator.config import AppConfig
+from orchestrator.managers import make_sensors
 from recordings.player import Player
 from recordings.topics import RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK
-from sensors.manager import SensorBatch, SensorManager
+from sensors.manager import SensorBatch
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +80,7 @@ def tick_inputs(config: AppConfig, path: Path, rate: float | None, n_ticks: int,
     times = times if times is not None else FrontEndTimes()
     dt_s = 1.0 / config.run.control_rate_hz
     clock = SimClock()
-    sensors = SensorManager(config, clock, keep_raw=False)  # a replay records nothing
+    sensors = make_sensors(config, clock, keep_raw=False)  # a replay records nothing
     stream = iter(Player(path, rate=rate, topics=[*RAW_TOPICS, TRUTH_POSE, TRUTH_TRACK]))
     clock_now = time.perf_counter
     t_read = clock_now()
@@ -218,7 +220,7 @@ def _message_pickler() -> Callable[[object], bytes]:
     (rebuilt by calling the class), which unpickles about twice as fast as the default state
     dictionaries of slotted dataclasses. Only ever read back by our own Main process."""
     table = copyreg.dispatch_table.copy()
-    for cls in [*vars(messages).values(), TickInput, FrontEndTimes]:
+    for cls in [*vars(messages).values(), TrackLayout, TickInput, FrontEndTimes]:
         if isinstance(cls, type) and dataclasses.is_dataclass(cls):
             names = tuple(f.name for f in dataclasses.fields(cls) if f.init)
             table[cls] = functools.partial(_reduce_dataclass, cls, names)
@@ -240,7 +242,7 @@ def _reduce_dataclass(cls: type, names: tuple[str, ...], obj: object
 
 _ALLOWED_GLOBALS = {
     "orchestrator.replay_front": {"TickInput", "FrontEndTimes"},
-    "recordings.codec": {"TrackRecord"},
+    "common.track": {"TrackLayout"},
     "numpy": {"dtype", "ndarray"},
     "numpy._core.numeric": {"_frombuffer"},
     "numpy.core.numeric": {"_frombuffer"},

@@ -24,22 +24,21 @@ from pathlib import Path
 from typing import Any
 
 from common.clock import RealClock, SimClock
-from common.config import AppConfig, config_to_toml
+from common.config import config_to_toml
 from common.messages import ActuatorCommand, AsState
-from controller.controller import Controller
 from mapper.evaluation import evaluate_map
-from mapper.mapper import Mapper
+from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
+from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
 from orchestrator.outputs import HashSink
 from orchestrator.run_log import RunLog
-from planner.path_planner import PathPlanner
 from recordings.recorder import Recorder
 from recordings.topics import TRUTH_POSE, TRUTH_TRACK
-from sensors.manager import SensorManager
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
 from simulator.handover import Handover, Phase
-from simulator.tracks import Track, load_track
+from simulator.track import Track
+from simulator.tracks import load_track
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
@@ -79,7 +78,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if options.track is not None:
         config.sim.track = options.track
     if options.laps is not None:
-        config.sim.laps = options.laps
+        config.mission.laps = options.laps
     if options.seed is not None:
         config.sim.seed = options.seed
     if options.mapper is not None:
@@ -88,7 +87,6 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         config.run.render = options.render
     if options.record is not None:
         config.run.record = options.record
-    config.controller.laps = config.sim.laps
 
     out_dir = options.out_dir or default_out_dir()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -100,7 +98,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
 
     clock = SimClock()
-    sensors = SensorManager(config, clock)
+    sensors = make_sensors(config, clock)
     hasher = HashSink()
     recorder = None
     outputs: list[Any] = [hasher]
@@ -116,13 +114,13 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if config.run.render:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config, out_dir / "frames")
+        visualiser = Visualiser(config.visualiser, out_dir / "frames")
     main = Main(
         config,
         sensors=sensors,
-        mapper=Mapper(config),
-        planner=PathPlanner(config),
-        controller=Controller(config),
+        mapper=make_mapper(config),
+        planner=make_planner(config),
+        controller=make_controller(config),
         outputs=outputs,
         recorder=recorder,
         visualiser=visualiser,
@@ -133,7 +131,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     try:
         result = runner.run()
     finally:
-        sensors.stop() if hasattr(sensors, "stop") else None
+        sensors.stop()
         if recorder is not None:
             recorder.close()
         if visualiser is not None:
@@ -190,7 +188,7 @@ class _SimRunner:
         command: ActuatorCommand | None = None
         stop_reason = "timeout"
         finished = False
-        progress = _Progress(self.options.progress, config.sim.laps)
+        progress = _Progress(self.options.progress, config.mission.laps)
         for k in range(1, max_ticks + 1):
             t_s = k * dt_s
             if pacer is not None:
@@ -358,9 +356,6 @@ def _movie(config: AppConfig, out_dir: Path) -> None:
 
 
 def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:
-    try:
-        from visualiser.plots import write_summary_plots
-    except ImportError:  # the visualiser is optional for a run
-        log.warning("visualiser.plots not available: no summary plots")
-        return
+    from visualiser.plots import write_summary_plots
+
     write_summary_plots(out_dir, runner.log.arrays(), track)

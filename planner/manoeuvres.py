@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from common.config import CarConfig
+from common.car import CarConfig
 from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
 

@@ -15,10 +15,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.errors import TrackError
 from common.messages import Baseframe, MapState, Plan, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
+from planner.config import PlannerConfig
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.racing_line import racing_line
 from planner.speed_profile import (
@@ -45,13 +46,13 @@ def empty_targets() -> TargetStates:
 class PathPlanner:
     """Plans the car's next manoeuvre from the map state (see the module docstring)."""
 
-    def __init__(self, config: AppConfig) -> None:
-        self.config = config.planner
-        self.car = config.car
+    def __init__(self, config: PlannerConfig, car: CarConfig) -> None:
+        self.config = config
+        self.car = car
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
-        self.generator = ManoeuvreGenerator(c, config.car)
-        self.limits = SpeedLimits.from_car(config.car, c.friction_safety_factor, c.max_speed_mps,
+        self.generator = ManoeuvreGenerator(c, car)
+        self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, c.max_speed_mps,
                                            lateral_factor=c.lateral_safety_factor)
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""

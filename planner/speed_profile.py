@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from common.config import CarConfig
+from common.car import CarConfig
 
 FloatArray = NDArray[np.float64]
 

@@ -6,5 +6,5 @@
 - :mod:`recordings.info`: ``info(path)``; :mod:`recordings.hashing`: ``OutputHasher``.
 - :mod:`recordings.codec`: ``to_proto`` / ``from_proto``; :mod:`recordings.topics`: topic names.
 
-Nothing is imported here: ``common.config`` imports :mod:`recordings.config` at start-up.
+Nothing is imported here: Main's configuration imports :mod:`recordings.config` at start-up.
 """

@@ -8,7 +8,6 @@ import os
 import sys
 from typing import Any
 
-from common.config import AppConfig
 from common.errors import RecordingError
 from recordings.info import info
 
@@ -24,7 +23,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     parser.set_defaults(func=_info_command)
 
 
-def _info_command(args: argparse.Namespace, config: AppConfig) -> int:
+def _info_command(args: argparse.Namespace, config: object) -> int:
     try:
         summary = info(args.path)
     except RecordingError as exc:

@@ -16,7 +16,7 @@ from google.protobuf.duration_pb2 import Duration
 from google.protobuf.timestamp_pb2 import Timestamp
 
 from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan
-from recordings.codec import TrackLike
+from common.track import TrackLayout
 from recordings.foxglove import scene_pb2 as fg
 
 WORLD_FRAME = "world"
@@ -166,7 +166,7 @@ def plan_scene(plan: Plan) -> fg.SceneUpdate:
     return fg.SceneUpdate(entities=[entity])
 
 
-def track_scene(track: TrackLike, t_s: float) -> fg.SceneUpdate:
+def track_scene(track: TrackLayout, t_s: float) -> fg.SceneUpdate:
     """The true cones and centreline of a simulated track, faint (entity ``truth_track``)."""
     cones_xy = np.asarray(track.cones_xy_m, dtype=np.float64).reshape(-1, 2)
     centreline = np.asarray(track.centreline_xy_m, dtype=np.float64).reshape(-1, 2)

@@ -1,7 +1,7 @@
 """The player: a recording's messages in log-time order, on the recording's own clock.
 
 ``Player(path)`` iterates ``(log_time_s, topic, message)`` with ``message`` converted back to its
-:mod:`common.messages` type (a :class:`recordings.codec.TrackRecord` on ``/truth/track``).
+:mod:`common.messages` type (a :class:`common.track.TrackLayout` on ``/truth/track``).
 The order is the recording's log-time order across all topics, whatever the rate: the rate only
 decides how long the pacer sleeps before yielding, never what is yielded or in which order
 (the rosbag2 #2091 failure). ``rate=None`` plays as fast as possible (``--max``); ``rate=R``

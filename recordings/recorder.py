@@ -38,11 +38,12 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 from mcap_protobuf.schema import register_schema
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.errors import RecordingError
 from common.messages import CanFrame, GpsFix, MapState, Plan, RawBytes
+from common.track import TrackLayout
 from recordings import foxglove_views, topics
-from recordings.codec import is_track, to_proto
+from recordings.codec import to_proto
 from recordings.config import RecordingConfig
 
 log = logging.getLogger(__name__)
@@ -308,8 +309,8 @@ class Recorder:
                 self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
         elif isinstance(message, Plan):
             self._write_proto(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), log_ns)
-        elif is_track(message):
-            scene = foxglove_views.track_scene(message, log_ns * 1e-9)  # type: ignore[arg-type]
+        elif isinstance(message, TrackLayout):
+            scene = foxglove_views.track_scene(message, log_ns * 1e-9)
             self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
 
     def _write_proto(self, topic: str, proto: ProtoMessage, log_ns: int) -> None:

@@ -16,7 +16,7 @@ from common.messages import (
     Plan,
     RawBytes,
 )
-from recordings.codec import TrackRecord
+from common.track import TrackLayout
 
 # Raw units
 GPS_NMEA = "/gps/nmea"
@@ -64,7 +64,7 @@ TOPIC_TYPES: dict[str, type] = {
     COMMAND: ActuatorCommand,
     HEALTH: Health,
     TRUTH_POSE: GroundTruth,
-    TRUTH_TRACK: TrackRecord,
+    TRUTH_TRACK: TrackLayout,
 }
 
 #: Protobuf schema name on each Foxglove topic.

@@ -16,10 +16,10 @@ from dataclasses import replace
 from google.protobuf.message import DecodeError as ProtoDecodeError
 from google.protobuf.unknown_fields import UnknownFieldSet
 
-from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection
 from sensors import camera_pb2
+from sensors.config import CameraConfig
 
 log = logging.getLogger(__name__)
 
@@ -86,8 +86,8 @@ class CameraParser:
     ARRIVAL_JITTER_S = 0.02
     """How far after its arrival an image time may be before it is implausible (s)."""
 
-    def __init__(self, config: AppConfig | None = None) -> None:
-        cfg = (config if config is not None else AppConfig()).sensors.camera
+    def __init__(self, config: CameraConfig | None = None) -> None:
+        cfg = config if config is not None else CameraConfig()
         self.clock_offset_s = cfg.clock_offset_s
         self.max_latency_s = cfg.max_latency_s
         self.assumed_latency_s = cfg.assumed_latency_s

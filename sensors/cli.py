@@ -21,7 +21,6 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
 from common.messages import GpsFix
 
 NMEA_CHUNK_BYTES = 64
@@ -141,7 +140,7 @@ def _check_file(path: str) -> bool:
     return True
 
 
-def _decode_nmea(args: argparse.Namespace, config: AppConfig) -> int:
+def _decode_nmea(args: argparse.Namespace, config: object) -> int:
     if not _check_file(args.file):
         return 2
     return _print_all(decode_nmea_file(args.file))
@@ -162,7 +161,7 @@ def _load(module_name: str, function: str) -> Any:
     return func
 
 
-def _decode_lidar(args: argparse.Namespace, config: AppConfig) -> int:
+def _decode_lidar(args: argparse.Namespace, config: object) -> int:
     if not _check_file(args.file):
         return 2
     decode_pcap = _load("sensors.decode_lidar", "decode_pcap")
@@ -171,7 +170,7 @@ def _decode_lidar(args: argparse.Namespace, config: AppConfig) -> int:
     return _print_all(decode_pcap(args.file, args.points_out))
 
 
-def _decode_can(args: argparse.Namespace, config: AppConfig) -> int:
+def _decode_can(args: argparse.Namespace, config: object) -> int:
     if not _check_file(args.file):
         return 2
     if args.dbc is not None and not _check_file(args.dbc):

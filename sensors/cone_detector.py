@@ -36,8 +36,9 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, LidarCones
+from sensors.config import DetectorConfig
 from sensors.velodyne import RING_ELEVATION_DEG, ReturnWindow
 
 log = logging.getLogger(__name__)
@@ -62,11 +63,11 @@ def cone_radius_m(size: ConeSize, height_m: NDArray[np.float64]) -> NDArray[np.f
 class ConeDetector:
     """Cones in one sweep of points; see the module docstring for the steps."""
 
-    def __init__(self, config: AppConfig) -> None:
-        self.cfg = config.sensors.lidar.detector
-        self.car = config.car
-        self.lidar_x_m = config.car.lidar_x_m
-        self.lidar_z_m = config.car.lidar_z_m
+    def __init__(self, config: DetectorConfig, car: CarConfig) -> None:
+        self.cfg = config
+        self.car = car
+        self.lidar_x_m = car.lidar_x_m
+        self.lidar_z_m = car.lidar_z_m
         self.stats: dict[str, int] = {}
         """Counts of the last call: points kept at each step, surfaces, preliminary cones."""
 

@@ -26,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.errors import DecodeError
+from sensors.config import LidarConfig
 from sensors.lidar_parser import LidarParser
 from sensors.velodyne import PACKET_SIZE, POSITION_PACKET_SIZE, decode_packets
 
@@ -114,7 +115,8 @@ def _udp_payload(ip: bytes) -> tuple[int, bytes] | None:
 
 
 def decode_pcap(path: str, points_out: str | None = None,
-                config: AppConfig | None = None) -> Iterator[dict[str, Any]]:
+                config: LidarConfig | None = None,
+                car: CarConfig | None = None) -> Iterator[dict[str, Any]]:
     """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}`` (and
     ``"refused_models"`` when another sensor's packets were refused).
 
@@ -123,9 +125,8 @@ def decode_pcap(path: str, points_out: str | None = None,
     ``x_m``, ``y_m``, ``size``, ``height_m``, ``time``). Datagrams to other ports are counted;
     1206-byte datagrams that do not decode are counted as rejects by reason.
     """
-    config = config if config is not None else AppConfig()
     counts: Counter[str] = Counter()
-    parser = LidarParser(config)
+    parser = LidarParser(config, car)
     all_points: list[np.ndarray] = []
     if points_out is not None:
         parser.on_packet = lambda _stamp, payload: all_points.append(

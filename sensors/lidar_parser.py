@@ -13,10 +13,11 @@ import logging
 from collections import Counter
 from collections.abc import Callable
 
-from common.config import AppConfig
+from common.car import CarConfig
 from common.errors import DecodeError
 from common.messages import LidarCones, LidarPoints
 from sensors.cone_detector import ConeDetector
+from sensors.config import LidarConfig
 from sensors.velodyne import SweepAssembler, check_packet, reject_reason
 from sensors.velodyne_model import ModelGuard
 
@@ -39,11 +40,12 @@ class LidarParser:
 
     source = "lidar"
 
-    def __init__(self, config: AppConfig | None = None, all_points: bool = False) -> None:
-        config = config if config is not None else AppConfig()
-        self.detector = ConeDetector(config)
+    def __init__(self, config: LidarConfig | None = None, car: CarConfig | None = None,
+                 all_points: bool = False) -> None:
+        config = config if config is not None else LidarConfig()
+        self.detector = ConeDetector(config.detector, car if car is not None else CarConfig())
         window = None if all_points else self.detector.return_window()
-        self.assembler = SweepAssembler(cut_azimuth_deg=config.sensors.lidar.cut_azimuth_deg,
+        self.assembler = SweepAssembler(cut_azimuth_deg=config.cut_azimuth_deg,
                                         window=window)
         self.rejects: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()

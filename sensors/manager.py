@@ -22,11 +22,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from common.car import CarConfig
 from common.clock import Clock
-from common.config import AppConfig
 from common.errors import SensorError
 from common.messages import ActuatorCommand, CanFrame, Health, RawBytes, Reading, SourceHealth
 from sensors.can_codec import CanCodec
+from sensors.config import SensorsConfig
 from sensors.receiver import FrameDecoder, Intake, Parser, RawUnit, Receiver, join_all
 
 logger = logging.getLogger(__name__)
@@ -55,7 +56,7 @@ def _time_key(item: tuple[int, Any]) -> tuple[float, int]:
     return float(item[1].timestamp_s), item[0]
 
 
-def make_parser(source: str, config: AppConfig) -> Parser | FrameDecoder:
+def make_parser(source: str, config: SensorsConfig, car: CarConfig) -> Parser | FrameDecoder:
     """The parser of ``source`` (imported lazily: each lives in its own module)."""
     if source == "gps":
         from sensors.nmea import NmeaParser
@@ -64,13 +65,13 @@ def make_parser(source: str, config: AppConfig) -> Parser | FrameDecoder:
         from sensors.imu_protocol import ImuParser
         return ImuParser()  # type: ignore[no-any-return]
     if source == "can":
-        return CanCodec(config.sensors.can.dbc or None)
+        return CanCodec(config.can.dbc or None)
     if source == "lidar":
         from sensors.lidar_parser import LidarParser
-        return LidarParser(config)  # type: ignore[no-any-return]
+        return LidarParser(config.lidar, car)  # type: ignore[no-any-return]
     if source == "camera":
         from sensors.camera_codec import CameraParser
-        return CameraParser(config)  # type: ignore[no-any-return]
+        return CameraParser(config.camera)  # type: ignore[no-any-return]
     raise SensorError(f"unknown sensor source {source!r} (expected one of {', '.join(SOURCES)})")
 
 
@@ -78,23 +79,23 @@ class SensorManager:
     """Receivers, parsers and health of every enabled sensor.
 
     ``parsers`` overrides the parser of a source (tests, tools); the others come from
-    :func:`make_parser`. A source is enabled by ``config.sensors.<source>.enabled``. With
+    :func:`make_parser`. A source is enabled by ``config.<source>.enabled``. With
     ``keep_raw`` False, :meth:`take` returns no raw units (nothing will record them: replay).
     """
 
-    def __init__(self, config: AppConfig, clock: Clock,
+    def __init__(self, config: SensorsConfig, car: CarConfig, clock: Clock,
                  parsers: Mapping[str, Parser | FrameDecoder] | None = None,
                  keep_raw: bool = True) -> None:
         self.config = config
         self.clock = clock
-        sc = config.sensors
+        sc = config
         self.enabled: tuple[str, ...] = tuple(
             s for s in SOURCES if getattr(sc, s).enabled)
         overrides = dict(parsers or {})
         self.intakes: dict[str, Intake] = {}
         sequence = itertools.count()  # arrival order across sources (ties in time)
         for source in self.enabled:
-            parser = overrides.get(source) or make_parser(source, config)
+            parser = overrides.get(source) or make_parser(source, config, car)
             self.intakes[source] = Intake(source, parser, sc.queue_length, sc.rate_window_s,
                                           sequence, keep_raw)
         self.receivers: dict[str, Receiver] = {}
@@ -106,7 +107,7 @@ class SensorManager:
     # -- live -----------------------------------------------------------------------------
 
     def _build_receiver(self, source: str) -> Receiver:
-        sc = self.config.sensors
+        sc = self.config
         cfg = getattr(sc, source)
         intake = self.intakes[source]
         common = dict(read_timeout_s=cfg.read_timeout_s, reconnect_min_s=sc.reconnect_min_s,
@@ -152,7 +153,7 @@ class SensorManager:
         if not self.receivers:
             self._started = False
             return True
-        late = join_all(self.receivers.values(), self.config.sensors.stop_timeout_s)
+        late = join_all(self.receivers.values(), self.config.stop_timeout_s)
         self._started = False
         return not late
 
@@ -213,7 +214,7 @@ class SensorManager:
         ``sensors.can.res_timeout_s``), since a lost RES must stop the car even while the wheel
         speeds keep coming.
         """
-        sc = self.config.sensors
+        sc = self.config
         out: list[SourceHealth] = []
         for source, intake in self.intakes.items():
             receiver = self.receivers.get(source)

@@ -274,11 +274,6 @@ class Intake:
                 self._last_s = max(self._last_s, t_s)
         return readings
 
-    def ingest_many(self, raws: Iterable[RawUnit]) -> None:
-        """:meth:`ingest` each unit in turn."""
-        for raw in raws:
-            self.ingest(raw)
-
     # -- taking ---------------------------------------------------------------------------
 
     def take_tagged(self) -> tuple[list[tuple[int, RawUnit]], list[tuple[int, Reading]]]:

@@ -11,9 +11,10 @@ from __future__ import annotations
 import logging
 import socket
 
+from common.car import CarConfig
 from common.clock import Clock
-from common.config import AppConfig
 from common.messages import RawBytes
+from sensors.config import LidarConfig
 from sensors.receiver import Intake, Parser, RawUnit, Receiver
 
 logger = logging.getLogger(__name__)
@@ -91,12 +92,12 @@ class UdpReceiver(Receiver):
         return units
 
 
-def lidar_receiver(clock: Clock, config: AppConfig, host: str, port: int,
+def lidar_receiver(clock: Clock, config: LidarConfig, car: CarConfig, host: str, port: int,
                    parser: Parser | None = None, **kwargs: float | int) -> UdpReceiver:
-    """A VLP-16 receiver (``sensors.lidar_parser.LidarParser(config)``)."""
+    """A VLP-16 receiver (``sensors.lidar_parser.LidarParser(config, car)``)."""
     if parser is None:
         from sensors.lidar_parser import LidarParser
-        parser = LidarParser(config)
+        parser = LidarParser(config, car)
     return UdpReceiver(clock, parser, host, port, **kwargs)  # type: ignore[arg-type]
 
 

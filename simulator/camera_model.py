@@ -26,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import CameraCones, ConeColour, ConeDetection, GroundTruth, RawBytes
 from sensors.camera_codec import encode_camera_cones
+from simulator.config import WorldConfig
 
 CONE_RADIUS_M = 0.13
 """Half-width used for occlusion between cones (m)."""
@@ -37,7 +37,7 @@ CONE_RADIUS_M = 0.13
 class CameraModel:
     """Emits the camera datagrams due up to each ``poll`` time; deterministic for a seed."""
 
-    def __init__(self, config: AppConfig, rng: np.random.Generator) -> None:
+    def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
         self.cfg = config.sim.camera
         self.rng = rng
         self.camera_x_m = config.car.camera_x_m

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import CanFrame, GroundTruth, RemoteStop, SteeringAngle, WheelSpeeds
 from sensors.can_codec import CanCodec
+from simulator.config import WorldConfig
 
 
 class CanModel:
@@ -29,7 +29,7 @@ class CanModel:
     Rates (Hz) and noise are keyword arguments; the defaults are the car's.
     """
 
-    def __init__(self, config: AppConfig, rng: np.random.Generator, *,
+    def __init__(self, config: WorldConfig, rng: np.random.Generator, *,
                  wheel_rate_hz: float = 100.0, steer_rate_hz: float = 100.0,
                  res_rate_hz: float = 10.0, wheel_slip_sigma: float = 0.01,
                  wheel_noise_mps: float = 0.02, steer_noise_rad: float = 0.002,

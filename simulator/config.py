@@ -8,6 +8,10 @@ Every sensor model reads its own sub-section (``config.sim.gps``, ``.imu``, ``.c
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
+
+from common.car import CarConfig
+from sensors.config import SensorsConfig
 
 
 @dataclass(slots=True)
@@ -109,12 +113,12 @@ class SimConfig:
     track: str = "default"
     """"default", "gen:SEED" or a path to an EUFS .csv / AMZ FSSIM .yaml track file."""
     seed: int = 1
-    laps: int = 10
     physics_rate_hz: float = 200.0
     origin_lat_deg: float = 49.3269
     origin_lon_deg: float = 8.5654
     origin_alt_m: float = 100.0
     start_heading_enu_rad: float = 0.0
+    """The simulated world frame's heading in ENU (rad, CCW from east): where the car faces."""
     driver_speed_mps: float = 7.0
     """Target speed of the scripted (exploration) driver."""
     driver_steer_noise_rad: float = 0.01
@@ -126,3 +130,17 @@ class SimConfig:
     can: CanSimConfig = field(default_factory=CanSimConfig)
     lidar: LidarSimConfig = field(default_factory=LidarSimConfig)
     camera: CameraSimConfig = field(default_factory=CameraSimConfig)
+
+
+class WorldConfig(Protocol):
+    """What the simulated world reads of the application's configuration: its own section, the
+    car's, and the sensors' (the CAN database its bus speaks). Main's configuration has them."""
+
+    @property
+    def sim(self) -> SimConfig: ...
+
+    @property
+    def car(self) -> CarConfig: ...
+
+    @property
+    def sensors(self) -> SensorsConfig: ...

@@ -12,9 +12,10 @@ import math
 
 import numpy as np
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand, AsState, GroundTruth
-from simulator.tracks import Track, polyline_curvature
+from common.polyline import polyline_curvature
+from simulator.track import Track
 
 
 class ScriptedDriver:

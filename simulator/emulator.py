@@ -25,9 +25,9 @@ from typing import Any
 import tomli_w
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.messages import ActuatorCommand, CanFrame, RawBytes
 from sensors.can_codec import CanCodec
+from simulator.config import WorldConfig
 from simulator.driver import ScriptedDriver
 from simulator.handover import Handover, Phase
 from simulator.tracks import load_track
@@ -47,6 +47,10 @@ class EmulatorOptions:
     """``emulate`` options."""
 
     track: str
+    exploration_overrun_m: float
+    """The person drives this far past the start line before stopping (Main's run setting)."""
+    handover_standstill_s: float
+    """Then the car stands this long before the RES "go" (Main's run setting)."""
     seconds: float | None = None
     write_config: Path | None = None
     summary: Path | None = None
@@ -63,7 +67,7 @@ class EmulatorOptions:
 class HardwareEmulator:
     """Runs a SimWorld in real time behind real transports."""
 
-    def __init__(self, config: AppConfig, options: EmulatorOptions) -> None:
+    def __init__(self, config: WorldConfig, options: EmulatorOptions) -> None:
         self.config = config
         self.options = options
         if options.seed is not None:
@@ -74,8 +78,8 @@ class HardwareEmulator:
                                      speed_mps=config.sim.driver_speed_mps,
                                      steer_noise_rad=config.sim.driver_steer_noise_rad)
         self.person = Handover(self.track, self.driver, self.world,
-                               overrun_m=config.run.exploration_overrun_m,
-                               standstill_s=config.run.handover_standstill_s)
+                               overrun_m=options.exploration_overrun_m,
+                               standstill_s=options.handover_standstill_s)
         self.codec = CanCodec(config.sensors.can.dbc or None)
         workdir = options.workdir or Path(tempfile.mkdtemp(prefix="fsd-emulator-"))
         workdir.mkdir(parents=True, exist_ok=True)
@@ -266,13 +270,3 @@ class HardwareEmulator:
             "final_speed_mps": round(self.final_speed_mps, 3),
             "watchdog_stop": self.watchdog_stop,
         }
-
-
-def wait_for_file(path: Path, timeout_s: float) -> bool:
-    """True once ``path`` exists (for scripts that start `drive` after `emulate`)."""
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if path.exists():
-            return True
-        time.sleep(0.05)
-    return False

@@ -33,10 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.conventions import LocalTangentFrame, WorldFrame, enu_yaw_to_compass_deg
 from common.messages import GroundTruth, RawBytes
 from sensors.nmea import KNOT_MPS, with_checksum
+from simulator.config import WorldConfig
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,7 +61,7 @@ class GpsNoise:
 class GpsModel:
     """A GNSS receiver on the simulated car; deterministic for a given ``rng`` seed."""
 
-    def __init__(self, config: AppConfig, rng: np.random.Generator,
+    def __init__(self, config: WorldConfig, rng: np.random.Generator,
                  noise: GpsNoise | None = None) -> None:
         sim = config.sim
         self.cfg = sim.gps

@@ -20,8 +20,9 @@ import math
 import numpy as np
 
 from common.errors import TrackError
+from common.polyline import FloatArray
+from simulator.track import Track
 from simulator.track_generator import track_from_centreline
-from simulator.tracks import FloatArray, Track
 
 STEP_M = 0.5
 """Spacing of the centreline samples (m)."""

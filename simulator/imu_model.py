@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import GroundTruth, ImuSample, RawBytes
 from sensors.imu_protocol import encode_imu_packet
+from simulator.config import WorldConfig
 
 GRAVITY_MPS2 = 9.81
 _NORMAL_BLOCK = 256
@@ -55,7 +55,7 @@ class ImuNoise:
 class ImuModel:
     """Emits the IMU packets due up to each ``poll`` time; deterministic for a given ``rng``."""
 
-    def __init__(self, config: AppConfig, rng: np.random.Generator,
+    def __init__(self, config: WorldConfig, rng: np.random.Generator,
                  noise: ImuNoise | None = None) -> None:
         self.cfg = config.sim.imu
         self.settings = noise or ImuNoise()

@@ -39,7 +39,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from common.config import AppConfig
 from common.messages import ConeSize, GroundTruth, RawBytes
 from sensors.velodyne import (
     BLOCK_DURATION_S,
@@ -55,6 +54,7 @@ from sensors.velodyne import (
     PRODUCT_VLP16,
     RETURN_MODE_STRONGEST,
 )
+from simulator.config import WorldConfig
 
 CONE_RANGE_M = 30.0
 """Cones farther than this from the sensor are not ray-cast (m)."""
@@ -77,7 +77,7 @@ _NOISE_TABLE_SIZE = 1 << 18
 class LidarModel:
     """Emits the VLP-16 data packets due up to each ``poll`` time; deterministic for a seed."""
 
-    def __init__(self, config: AppConfig, rng: np.random.Generator) -> None:
+    def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
         self.cfg = config.sim.lidar
         self.rng = rng
         self.lidar_x_m = config.car.lidar_x_m

@@ -20,18 +20,16 @@ from scipy.interpolate import CubicSpline
 
 from common.errors import TrackError
 from common.messages import ConeColour, ConeSize
-from simulator.tracks import (
+from common.polyline import (
     FloatArray,
-    Track,
-    _finish,
-    _line_from_cluster,
-    _RawLayout,
     nearest_on_polyline,
     polyline_curvature,
     polyline_length,
     resample,
     smooth_closed,
 )
+from simulator.track import Track
+from simulator.track_layouts import RawLayout, finish_track, line_from_cluster
 
 MIN_WIDTH_M = 3.0
 MAX_CONE_SPACING_M = 5.0
@@ -223,9 +221,9 @@ def track_from_centreline(name: str, centre: FloatArray, width_m: float,
     t = centre[(j + 1) % n_pts] - centre[j - 1]
     pose = (float(centre[j, 0]), float(centre[j, 1]), math.atan2(float(t[1]), float(t[0])))
     tl = centre[(start_index + 1) % n_pts] - centre[start_index - 1]
-    start_line = _line_from_cluster(big, math.atan2(float(tl[1]), float(tl[0])))
-    raw = _RawLayout(name, name, xy, colours, sizes, pose)
-    return _finish(raw, "trackdrive", pose, centre, left_side, right_side, True, start_line,
+    start_line = line_from_cluster(big, math.atan2(float(tl[1]), float(tl[0])))
+    raw = RawLayout(name, name, xy, colours, sizes, pose)
+    return finish_track(raw, "trackdrive", pose, centre, left_side, right_side, True, start_line,
                    start_line)
 
 

@@ -27,9 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand, GroundTruth
-from simulator.tracks import FloatArray
+from common.polyline import FloatArray
 
 GRAVITY_MPS2 = 9.81
 ROLLING_RESISTANCE_MPS2 = 0.15
@@ -291,7 +291,3 @@ class Vehicle:
     def footprint_xy_m(self) -> FloatArray:
         """:meth:`footprint_corners` as a (4,2) array."""
         return np.array(self.footprint_corners(), np.float64)
-
-    def tyre_forces_n(self) -> tuple[float, float, float, float]:
-        """Last step's axle forces (N): front Fx, front Fy (wheel frame), rear Fx, rear Fy."""
-        return self._fx_front_n, self._fy_front_n, self._fx_rear_n, self._fy_rear_n

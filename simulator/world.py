@@ -8,13 +8,11 @@ counts knocked cones (``cones_hit``: cone indices whose base the car's outline t
 off-track events (all four corners beyond a boundary) and start-line crossings (lap times).
 
 Deterministic: each sensor model gets its own generator spawned from ``seed`` in a fixed order,
-so the same seed and the same commands give the same bytes. A sensor model whose module does not
-import is skipped with a warning (``missing_models`` lists them).
+so the same seed and the same commands give the same bytes.
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
 from collections.abc import Iterable, Sequence
@@ -22,22 +20,27 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
-from common.messages import ActuatorCommand, AsState, CanFrame, GroundTruth, RawBytes
+from common.messages import ActuatorCommand, CanFrame, GroundTruth, RawBytes
+from simulator.camera_model import CameraModel
+from simulator.can_model import CanModel
+from simulator.config import WorldConfig
 from simulator.faults import Fault, parse_faults
-from simulator.tracks import Track
+from simulator.gps_model import GpsModel
+from simulator.imu_model import ImuModel
+from simulator.lidar_model import LidarModel
+from simulator.track import Track
 from simulator.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
-SENSOR_MODELS: tuple[tuple[str, str, str], ...] = (
-    ("gps", "simulator.gps_model", "GpsModel"),
-    ("imu", "simulator.imu_model", "ImuModel"),
-    ("can", "simulator.can_model", "CanModel"),
-    ("lidar", "simulator.lidar_model", "LidarModel"),
-    ("camera", "simulator.camera_model", "CameraModel"),
+SENSOR_MODELS: tuple[tuple[str, type], ...] = (
+    ("gps", GpsModel),
+    ("imu", ImuModel),
+    ("can", CanModel),
+    ("lidar", LidarModel),
+    ("camera", CameraModel),
 )
-"""(name, module, class) of every sensor model, in the order their generators are spawned."""
+"""(name, class) of every sensor model, in the order their generators are spawned."""
 
 RawUnit = RawBytes | CanFrame
 
@@ -57,7 +60,7 @@ class SimWorld:
     person presses go at the handover: :meth:`send_go`).
     """
 
-    def __init__(self, config: AppConfig, track: Track, seed: int | None = None,
+    def __init__(self, config: WorldConfig, track: Track, seed: int | None = None,
                  faults: str | Iterable[str | Fault] | None = None,
                  sensors: Sequence[str] | None = None, res_go: bool = False) -> None:
         self.config = config
@@ -68,23 +71,11 @@ class SimWorld:
         self.faults = parse_faults(config.sim.faults if faults is None else faults)
         children = np.random.SeedSequence(self.seed).spawn(len(SENSOR_MODELS) + 1)
         self.rng = np.random.default_rng(children[-1])
-        wanted = {name for name, _, _ in SENSOR_MODELS} if sensors is None else set(sensors)
+        wanted = {name for name, _ in SENSOR_MODELS} if sensors is None else set(sensors)
         self.models: dict[str, Any] = {}
-        self.missing_models: list[str] = []
-        for (name, module_name, class_name), child in zip(SENSOR_MODELS, children, strict=False):
-            if name not in wanted:
-                continue
-            section = getattr(config.sim, name, None)
-            if section is not None and not getattr(section, "enabled", True):
-                continue
-            try:
-                cls = getattr(importlib.import_module(module_name), class_name)
-            except (ImportError, AttributeError) as exc:
-                log.warning("sensor model %s.%s not available (%s): running without it",
-                            module_name, class_name, exc)
-                self.missing_models.append(name)
-                continue
-            self.models[name] = cls(config, np.random.default_rng(child))
+        for (name, cls), child in zip(SENSOR_MODELS, children, strict=False):
+            if name in wanted and getattr(config.sim, name).enabled:
+                self.models[name] = cls(config, np.random.default_rng(child))
         self._step_index = 0
         self._command: ActuatorCommand | None = None
         self.cones_hit: set[int] = set()
@@ -105,8 +96,6 @@ class SimWorld:
         self._res_state: tuple[bool, bool] | None = None
         self._go = bool(res_go)
         self._update_res(0.0)
-        self._garbage_missing_warned = False
-        self._imu_nan_warned = False
 
     # -- public ---------------------------------------------------------------------------
 
@@ -169,8 +158,6 @@ class SimWorld:
             truth = vehicle.truth(t)
             for model in models:
                 out.extend(model.poll(t, truth, vehicle, self.track))
-            if faults:
-                self._extra_units(t, out)
         if faults:
             out = self._filter(out)
         out.sort(key=_timestamp)
@@ -186,7 +173,6 @@ class SimWorld:
             "laps_completed": self.laps_completed,
             "lap_times_s": self.lap_times_s,
             "faults": [str(f) for f in self.faults],
-            "missing_models": list(self.missing_models),
         }
 
     # -- scoring ----------------------------------------------------------------------------
@@ -277,38 +263,19 @@ class SimWorld:
         can = models.get("can")
         self._update_res(t)
         gps = models.get("gps")
-        if gps is not None and hasattr(gps, "dropout"):
+        if gps is not None:
             gps.dropout = self._active("gps-dropout", t)
         lidar = models.get("lidar")
-        if lidar is not None and hasattr(lidar, "dead"):
+        if lidar is not None:
             lidar.dead = self._active("lidar-dead", t)
         imu = models.get("imu")
         if imu is not None:
-            if hasattr(imu, "inject_nan"):
-                imu.inject_nan = self._active("imu-nan", t)
-            elif not self._imu_nan_warned and self._active("imu-nan", t):
-                log.warning("imu-nan fault: the IMU model has no inject_nan switch; ignored")
-                self._imu_nan_warned = True
-        if can is not None and hasattr(can, "garbage"):
+            imu.inject_nan = self._active("imu-nan", t)
+        if can is not None:
             can.garbage = self._active("can-garbage", t)
 
-    def _extra_units(self, t: float, out: list[RawUnit]) -> None:
-        """CAN garbage made here when the CAN model cannot make it itself."""
-        can = self.models.get("can")
-        if can is not None and hasattr(can, "garbage"):
-            return
-        if not self._active("can-garbage", t):
-            return
-        if self._step_index % max(int(round(0.01 / self.dt_s)), 1):
-            return
-        rng = self.rng
-        for _ in range(int(rng.poisson(2.0))):
-            arbitration_id = int(rng.integers(0x600, 0x7FF))
-            data = bytes(rng.integers(0, 256, int(rng.integers(0, 9))).astype(np.uint8).tolist())
-            out.append(CanFrame(t, arbitration_id, data))
-
     def _filter(self, out: list[RawUnit]) -> list[RawUnit]:
-        """Drop what dead or silent sensors would not send (also when a model has no switch)."""
+        """Drop what dead or silent sensors would not send."""
         drop: set[str] = set()
         for f in self.faults:
             source = _FAULT_SOURCE.get(f.kind)
@@ -325,8 +292,3 @@ class SimWorld:
                 continue
             kept.append(unit)
         return kept
-
-
-def idle_command(t_s: float) -> ActuatorCommand:
-    """No throttle, no brake, wheels straight (what the car does with nobody at the wheel)."""
-    return ActuatorCommand(t_s, 0.0, 0.0, 0.0, AsState.OFF)

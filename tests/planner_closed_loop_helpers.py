@@ -10,7 +10,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
@@ -22,6 +21,7 @@ from common.messages import (
     RemoteStop,
 )
 from controller.controller import Controller
+from orchestrator.config import AppConfig
 from planner.path_planner import PathPlanner
 
 
@@ -123,10 +123,9 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
                     explore_waypoints: bool = False, dynamic: bool = False) -> LoopResult:
     """Drive ``laps`` autonomous laps of a simulator Track with perfect pose and a known map
     (``dynamic``: the simulator's vehicle model instead of the kinematic bicycle)."""
-    config.controller.laps = laps
     config.controller.safety.auto_go = True
-    planner = PathPlanner(config)
-    controller = Controller(config)
+    planner = PathPlanner(config.planner, config.car)
+    controller = Controller(config.controller, config.car, laps)
     car: Bicycle | DynamicAdapter = DynamicAdapter(config) if dynamic else bicycle_for(config)
     cones = cone_map(track.cones_xy_m, track.colours)
     dt = 1.0 / config.controller.rate_hz

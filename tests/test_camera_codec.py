@@ -9,9 +9,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection, GroundTruth
+from orchestrator.config import AppConfig
 from sensors import camera_pb2
 from sensors.camera_codec import CameraParser, decode_camera_cones, encode_camera_cones
 from simulator.camera_model import CameraModel
@@ -156,7 +156,7 @@ def test_camera_clock_skew_is_restamped_not_lost() -> None:
     assert parser.counts["restamped"] == 2
     config = AppConfig()
     config.sensors.camera.clock_offset_s = 5.0
-    shifted = CameraParser(config)
+    shifted = CameraParser(config.sensors.camera)
     (on_ours,) = shifted.feed(frame.timestamp_s + 5.05, payload)
     assert on_ours.timestamp_s == pytest.approx(frame.timestamp_s + 5.0)
     assert shifted.counts["restamped"] == 0

@@ -12,12 +12,13 @@ from common.errors import DecodeError
 from common.messages import RemoteStop, SteeringAngle, WheelSpeeds
 from sensors.can_codec import CanCodec
 from sensors.decode_can import decode_log
+from support.shared_data import shared_path
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "can"
+DATA = shared_path("can")
 LOG = DATA / "comma2k19_rav4_bus0_candump.log"
 RAV4_DBC = DATA / "toyota_rav4_2017_pt_generated.dbc"
 
-needs_data = pytest.mark.skipif(not LOG.is_file(), reason="shared CAN data not present")
+needs_data = pytest.mark.shared_data("can/comma2k19_rav4_bus0_candump.log")
 
 
 @needs_data

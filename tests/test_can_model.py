@@ -8,8 +8,8 @@ import cantools
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import GroundTruth, RemoteStop
+from orchestrator.config import AppConfig
 from sensors.can_codec import (
     DEFAULT_DBC_PATH,
     RES_STATE_ID,

@@ -9,8 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from common.config import AppConfig, config_to_toml, load_config
+from common.config import apply_overrides, config_to_toml
 from common.errors import ConfigError
+from orchestrator.config import AppConfig, load_config
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -117,3 +118,17 @@ def test_every_subcommand_stops_on_a_bad_config(tmp_path: Path, command: list[st
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "car.wheelbase" in lines[0] and str(path) in lines[0], lines
+
+
+def test_recorded_configuration_of_before_the_mission_section_is_upgraded() -> None:
+    from orchestrator.replay import upgrade_config
+
+    old = {"sim": {"laps": 3, "start_heading_enu_rad": 0.7},
+           "controller": {"rate_hz": 100.0},
+           "mapper": {"ukf": {"start_heading_known": True}}}
+    config = apply_overrides(AppConfig(), upgrade_config(old))
+    assert config.mission.laps == 3
+    assert config.mission.start_heading_enu_rad == 0.7
+    assert config.sim.start_heading_enu_rad == 0.7
+    unknown = apply_overrides(AppConfig(), upgrade_config({"sim": {"laps": 2}}))
+    assert unknown.mission.laps == 2 and unknown.mission.start_heading_enu_rad is None

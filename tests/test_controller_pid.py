@@ -6,9 +6,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from common.config import AppConfig
 from controller.controller import make_longitudinal
 from controller.pid import PID, LongitudinalController, RateLimiter
+from orchestrator.config import AppConfig
 
 
 def simulate_speed(ctrl: LongitudinalController, v0: float, v_ref: float, seconds: float,

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import TargetStates
 from controller.controller import make_steering_law
 from controller.pid import RateLimiter
 from controller.steering import PathRef
+from orchestrator.config import AppConfig
 
 
 def straight(length: float = 400.0) -> PathRef:

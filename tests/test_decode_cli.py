@@ -11,8 +11,9 @@ import pytest
 
 import main
 from sensors.cli import strip_comment_lines
+from support.shared_data import SHARED_DATA, missing, shared_data
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = SHARED_DATA
 
 
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, list[dict], str]:
@@ -53,7 +54,7 @@ def test_decode_nmea_prints_fixes_then_counts(tmp_path: Path,
 def test_decode_nmea_on_every_capture_never_fails(capsys: pytest.CaptureFixture[str]) -> None:
     captures = sorted((DATA / "nmea").glob("*.log"))
     if not captures:
-        pytest.skip("no captures")
+        missing(str(DATA / "nmea" / "*.log"))
     for capture in captures:
         code, lines, _ = _run(["decode", "nmea", str(capture)], capsys)
         assert code == 0, capture.name
@@ -83,12 +84,8 @@ def test_missing_decoder_module_is_a_clear_error(tmp_path: Path, monkeypatch: py
 
 
 def test_decode_can_and_lidar_dispatch(capsys: pytest.CaptureFixture[str]) -> None:
-    log = DATA / "can" / "comma2k19_rav4_bus0_candump.log"
-    pcap = DATA / "lidar" / "velodyne_vlp16.pcap"
-    if not (log.exists() and pcap.exists()):
-        pytest.skip("no data")
-    pytest.importorskip("sensors.decode_can")
-    pytest.importorskip("sensors.decode_lidar")
+    log = shared_data("can", "comma2k19_rav4_bus0_candump.log")
+    pcap = shared_data("lidar", "velodyne_vlp16.pcap")
     code, lines, _ = _run(["decode", "can", str(log)], capsys)
     assert code == 0 and "counts" in lines[-1]
     code, lines, _ = _run(["decode", "lidar", str(pcap)], capsys)

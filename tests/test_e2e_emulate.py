@@ -34,6 +34,7 @@ import numpy as np
 import pytest
 
 from common.messages import AsState
+from support.shared_data import shared_data
 
 ROOT = Path(__file__).resolve().parents[1]
 TRACK = ROOT.parent / "shared" / "data" / "tracks" / "eufs" / "small_track.csv"
@@ -97,8 +98,7 @@ def procs() -> Iterator[list[Proc]]:
 
 def start_emulator(folder: Path, procs: list[Proc], seconds: float) -> tuple[Proc, Path, Path]:
     """``emulate`` with its car config and summary in ``folder``; waits for the config."""
-    if not TRACK.exists():
-        pytest.skip(f"shared test data missing: {TRACK}")
+    shared_data("tracks", "eufs", "small_track.csv")
     car = folder / "car.toml"
     summary = folder / "emulator.json"
     emulator = Proc("emulate", ["emulate", "-v", "--track", str(TRACK), "--write-config",

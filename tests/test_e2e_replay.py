@@ -18,6 +18,8 @@ from typing import Any
 
 import pytest
 
+from support.shared_data import shared_data
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 TRACK = DATA / "tracks" / "eufs" / "small_oval.csv"
@@ -44,8 +46,7 @@ def json_out(proc: subprocess.CompletedProcess[str]) -> dict[str, Any]:
 
 @pytest.fixture(scope="module")
 def sim_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
-    if not TRACK.exists():
-        pytest.skip(f"shared test data missing: {TRACK}")
+    shared_data("tracks", "eufs", "small_oval.csv")
     out = tmp_path_factory.mktemp("e2e_sim")
     config = out / "short.toml"
     config.write_text(f"[run]\nmax_sim_time_s = {SIM_TIME_S}\nrender = false\n")
@@ -95,7 +96,7 @@ def test_replay_reproduces_sim_outputs(sim_run: tuple[Path, dict[str, Any]],
 def test_front_end_process_changes_nothing(sim_run: tuple[Path, dict[str, Any]]) -> None:
     """The replay's front end (reading + Sensor Manager) run in its own process hands Main the
     same ticks as run in Main's process: equal readings and health, tick by tick."""
-    from common.config import AppConfig
+    from orchestrator.config import AppConfig
     from orchestrator.replay import last_command_time_s, replay_config
     from orchestrator.replay_front import tick_inputs, tick_inputs_in_process
 
@@ -122,8 +123,8 @@ def test_front_end_failure_is_a_clear_error(sim_run: tuple[Path, dict[str, Any]]
                                             monkeypatch: pytest.MonkeyPatch) -> None:
     """A failure inside the front-end process ends the replay with a RecordingError naming
     it, not with a hang or a silent short replay."""
-    from common.config import AppConfig
     from common.errors import RecordingError
+    from orchestrator.config import AppConfig
     from orchestrator.replay import ReplayOptions, run_replay
     from sensors.manager import SensorManager
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from recordings import sample
+from orchestrator import sample
 
 ROOT = Path(__file__).resolve().parents[1]
 

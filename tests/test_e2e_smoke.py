@@ -12,6 +12,8 @@ from typing import Any
 
 import pytest
 
+from support.shared_data import shared_data
+
 ROOT = Path(__file__).resolve().parents[1]
 OVAL = ROOT.parent / "shared" / "data" / "tracks" / "eufs" / "small_oval.csv"
 
@@ -68,8 +70,7 @@ def test_sim_estop_while_driving(tmp_path: Path) -> None:
     at 24 s hits the car while the stack drives it. Sensor faults earlier in the run (CAN
     garbage, IMU NaNs, a GPS dropout) must not crash anything, and the replay of the run's
     recording reproduces it."""
-    if not OVAL.exists():
-        pytest.skip(f"shared test data missing: {OVAL}")
+    shared_data("tracks", "eufs", "small_oval.csv")
     config = tmp_path / "c.toml"
     config.write_text("[run]\nmax_sim_time_s = 40.0\nrender = false\n")
     out = tmp_path / "run"
@@ -80,15 +81,16 @@ def test_sim_estop_while_driving(tmp_path: Path) -> None:
     summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
     assert summary["stop_reason"] != "timeout"
     assert summary["finished"] is False
-    assert "emergency" in summary["stop_reason"] or summary["stop_reason"] == "estop"
-    if summary["exploration_lap_time_s"] is not None and "emergency" in summary["stop_reason"]:
-        estop = summary["estop"]
-        assert estop["time_s"] == pytest.approx(24.0, abs=0.02)
-        assert estop["speed_mps"] > 0.0
-        assert estop["stop_distance_m"] >= 0.0
-        assert estop["stop_time_s"] > 0.0
-        # The run ended once the car stood: shortly after the e-stop.
-        assert summary["timing"]["sim_time_s"] < 24.0 + estop["stop_time_s"] + 0.5
+    # The exploration lap was over and the stack drove the car when the e-stop came.
+    assert summary["exploration_lap_time_s"] is not None
+    assert "emergency" in summary["stop_reason"], summary["stop_reason"]
+    estop = summary["estop"]
+    assert estop["time_s"] == pytest.approx(24.0, abs=0.02)
+    assert estop["speed_mps"] > 0.0
+    assert estop["stop_distance_m"] >= 0.0
+    assert estop["stop_time_s"] > 0.0
+    # The run ended once the car stood: shortly after the e-stop.
+    assert summary["timing"]["sim_time_s"] < 24.0 + estop["stop_time_s"] + 0.5
     assert (out / "run_log.npz").exists()
     printed = json.loads(proc.stdout[proc.stdout.find("{"):])
     assert printed["outputs_sha256"] == summary["outputs_sha256"]

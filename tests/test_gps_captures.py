@@ -15,12 +15,13 @@ import pytest
 
 from sensors.cli import decode_nmea_file, strip_comment_lines
 from sensors.nmea import NmeaParser, with_checksum
+from support.shared_data import shared_path
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "nmea"
+DATA = shared_path("nmea")
 CAPTURES = sorted(DATA.glob("*.log"))
 TOL_DEG = 1e-6
 
-pytestmark = pytest.mark.skipif(not CAPTURES, reason=f"no captures in {DATA}")
+pytestmark = pytest.mark.shared_data("nmea")
 
 
 def _gpsd_fixes(chk: Path) -> list[dict]:
@@ -51,6 +52,10 @@ def _matches(ref: dict, ours: list[dict]) -> bool:
             continue
         return True
     return False
+
+
+def test_captures_present() -> None:
+    assert len(CAPTURES) >= 12, f"{len(CAPTURES)} captures in {DATA}"
 
 
 @pytest.mark.parametrize("capture", CAPTURES, ids=lambda p: p.name)

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from common.config import AppConfig
 from common.conventions import LocalTangentFrame, WorldFrame, wrap_angle
 from common.messages import GroundTruth
+from orchestrator.config import AppConfig
 from sensors.nmea import NmeaParser, split_sentences
 from simulator.gps_model import GpsModel
 

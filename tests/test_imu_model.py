@@ -8,8 +8,8 @@ import struct
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import GroundTruth
+from orchestrator.config import AppConfig
 from sensors.imu_protocol import ImuParser, crc16
 from simulator.imu_model import GRAVITY_MPS2, ImuModel, ImuNoise
 
@@ -146,8 +146,8 @@ def test_same_seed_same_bytes() -> None:
 
 
 def test_uses_the_vehicle_model_acceleration_when_given() -> None:
-    vehicle_mod = pytest.importorskip("simulator.vehicle")
     from common.messages import ActuatorCommand
+    from simulator import vehicle as vehicle_mod
 
     config = AppConfig()
     vehicle = vehicle_mod.Vehicle(config.car)

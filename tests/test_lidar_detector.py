@@ -13,8 +13,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import ConeSize, GroundTruth, LidarCones
+from orchestrator.config import AppConfig
 from sensors.cone_detector import ConeDetector
 from sensors.lidar_parser import LidarParser
 from simulator.lidar_model import LidarModel
@@ -47,7 +47,7 @@ def _simulate(duration_s: float, speed_mps: float, seed: int = 7
     config = AppConfig()
     track = _circle_track()
     model = LidarModel(config, np.random.default_rng(seed))
-    parser = LidarParser(config)
+    parser = LidarParser(config.sensors.lidar, config.car)
     sweeps: list[LidarCones] = []
     sweep_points = []
     for i in range(1, int(round(duration_s / 0.005)) + 1):
@@ -146,7 +146,7 @@ def test_size_classes_at_each_range() -> None:
                 cones_xy_m=np.array([[config.car.lidar_x_m + dist, 0.4]]),
                 sizes=np.array([int(size)]))
             model = LidarModel(config, np.random.default_rng(11))
-            parser = LidarParser(config)
+            parser = LidarParser(config.sensors.lidar, config.car)
             out = []
             for i in range(1, 81):
                 t = i * 0.005
@@ -162,7 +162,7 @@ def test_size_classes_at_each_range() -> None:
 def test_tall_object_and_wall_are_not_cones() -> None:
     """A post (taller than a large cone) and a long wall of points are rejected."""
     config = AppConfig()
-    det = ConeDetector(config)
+    det = ConeDetector(config.sensors.lidar.detector, config.car)
     pts, rings = [], []
     elev = np.radians(np.arange(-15, 16, 2.0))
     az = np.radians(np.arange(-30, 30, 0.2))
@@ -194,7 +194,8 @@ def test_decoding_window_changes_no_cone() -> None:
     config = AppConfig()
     track = _circle_track()
     model = LidarModel(config, np.random.default_rng(3))
-    windowed, everything = LidarParser(config), LidarParser(config, all_points=True)
+    windowed = LidarParser(config.sensors.lidar, config.car)
+    everything = LidarParser(config.sensors.lidar, config.car, all_points=True)
     got: list[tuple[LidarCones, LidarCones]] = []
     kept, total = 0, 0
     for i in range(1, int(round(1.5 / 0.005)) + 1):
@@ -223,7 +224,7 @@ def test_sweep_with_nothing_in_the_window_still_reported() -> None:
     config = AppConfig()
     empty = SimpleNamespace(cones_xy_m=np.zeros((0, 2)), sizes=np.zeros(0, np.int64))
     model = LidarModel(config, np.random.default_rng(4))
-    parser = LidarParser(config)
+    parser = LidarParser(config.sensors.lidar, config.car)
     sweeps: list[LidarCones] = []
     for i in range(1, int(round(1.0 / 0.005)) + 1):
         t = i * 0.005

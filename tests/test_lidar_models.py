@@ -182,14 +182,14 @@ def test_simulated_packets_with_losses_are_all_decoded() -> None:
     """The simulator's VLP-16 (id 0x22, 1327 us, some packets lost) is never refused."""
     from types import SimpleNamespace
 
-    from common.config import AppConfig
     from common.messages import GroundTruth
+    from orchestrator.config import AppConfig
     from simulator.lidar_model import LidarModel
 
     config = AppConfig()
     model = LidarModel(config, np.random.default_rng(4))
     track = SimpleNamespace(cones_xy_m=np.array([[6.0, 1.5], [6.0, -1.5]]), sizes=np.array([1, 1]))
-    parser = LidarParser(config)
+    parser = LidarParser(config.sensors.lidar, config.car)
     fed = 0
     for i in range(1, 101):
         t = i * 0.005

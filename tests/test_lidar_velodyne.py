@@ -18,11 +18,12 @@ from sensors.velodyne import (
     decode_packet,
     decode_packets,
 )
+from support.shared_data import shared_path
 
 ROOT = Path(__file__).resolve().parents[1]
-PCAP = Path(__file__).resolve().parents[2] / "shared" / "data" / "lidar" / "velodyne_vlp16.pcap"
+PCAP = shared_path("lidar", "velodyne_vlp16.pcap")
 
-pytestmark = pytest.mark.skipif(not PCAP.exists(), reason="shared test data missing")
+pytestmark = pytest.mark.shared_data("lidar/velodyne_vlp16.pcap")
 
 
 def _data_packets() -> list[tuple[float, bytes]]:
@@ -36,7 +37,7 @@ def _reference_points() -> np.ndarray:
     0.2 deg per firing, 2 firings per block); velodyne-decoder refuses a VLP-16 model with that
     id, so the reference is given the packets with the id byte set to 0x22 (VLP-16).
     """
-    vd = pytest.importorskip("velodyne_decoder")
+    import velodyne_decoder as vd
     decoder = vd.StreamDecoder(vd.Config(model=vd.Model.VLP16, min_range=0.0, max_range=1000.0))
     clouds = []
     for stamp, payload in _data_packets():
@@ -71,8 +72,6 @@ def test_decode_pcap_points_match_velodyne_decoder(tmp_path: Path) -> None:
 
 
 def test_cli_decode_lidar_writes_points(tmp_path: Path) -> None:
-    if not (ROOT / "sensors" / "cli.py").exists():
-        pytest.skip("sensors/cli.py (decode command) not there yet")
     out = tmp_path / "P.npy"
     proc = subprocess.run(
         [sys.executable, "main.py", "decode", "lidar", str(PCAP), "--points-out", str(out)],
@@ -147,8 +146,8 @@ def test_simulated_packets_over_udp_loopback_give_cones() -> None:
     import socket
     from types import SimpleNamespace
 
-    from common.config import AppConfig
     from common.messages import GroundTruth
+    from orchestrator.config import AppConfig
     from simulator.lidar_model import LidarModel
 
     config = AppConfig()
@@ -164,7 +163,7 @@ def test_simulated_packets_over_udp_loopback_give_cones() -> None:
     rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 20)
     rx.bind(("127.0.0.1", 0))
     rx.settimeout(2.0)
-    parser = LidarParser(config)
+    parser = LidarParser(config.sensors.lidar, config.car)
     out = []
     try:
         for raw in raws:

@@ -14,8 +14,8 @@ from pathlib import Path
 import can
 import pytest
 
-from common.config import AppConfig
 from common.messages import ActuatorCommand, AsState, CanFrame, WheelSpeeds
+from orchestrator.config import AppConfig
 from orchestrator.live import DriveOptions, LiveMain
 from recordings.player import Player
 from sensors.can_codec import CanCodec

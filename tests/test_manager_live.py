@@ -15,7 +15,6 @@ from typing import Any
 import pytest
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
@@ -26,6 +25,7 @@ from common.messages import (
     RemoteStop,
     WheelSpeeds,
 )
+from orchestrator.config import AppConfig
 from sensors.can_codec import AS_COMMAND_ID, CanCodec
 from sensors.imu_protocol import encode_imu_packet
 from sensors.manager import SensorManager
@@ -107,7 +107,7 @@ def test_every_receiver_live_take_health_command_and_prompt_stop(ptys) -> None:
     except ImportError:
         parsers = {"camera": PlainCameraParser()}
         camera_payload = b"CAM frame"
-    manager = SensorManager(config, clock, parsers=parsers)
+    manager = SensorManager(config.sensors, config.car, clock, parsers=parsers)
     assert manager.enabled == ("gps", "imu", "can", "lidar", "camera")
     health = manager.health(clock.now_s())
     assert all(s.stale for s in health.sources)  # nothing heard yet
@@ -198,7 +198,8 @@ def test_stop_is_prompt_even_while_ports_are_missing(tmp_path) -> None:
     s.lidar.host = s.camera.host = "127.0.0.1"
     s.lidar.port = s.camera.port = 0
     s.reconnect_min_s, s.reconnect_max_s = 0.05, 5.0
-    manager = SensorManager(config, RealClock(), parsers={"camera": PlainCameraParser()})
+    manager = SensorManager(config.sensors, config.car, RealClock(),
+                            parsers={"camera": PlainCameraParser()})
     with manager:
         assert wait_for(lambda: all(manager.receivers[x].intake.errors >= 2
                                     for x in ("gps", "imu", "can")))

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from common.clock import SimClock
-from common.config import AppConfig
 from common.messages import (
     ActuatorCommand,
     AsState,
@@ -21,6 +20,7 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
+from orchestrator.config import AppConfig
 from sensors.can_codec import CanCodec
 from sensors.imu_protocol import encode_imu_packet
 from sensors.manager import SensorManager
@@ -38,6 +38,9 @@ def offline_config() -> AppConfig:
     config.sensors.camera.enabled = False
     config.sensors.lidar.enabled = False
     return config
+
+
+OFFLINE = offline_config()
 
 
 def sim_stream(duration_s: float, seed: int = 1) -> list[RawBytes | CanFrame]:
@@ -63,7 +66,7 @@ def test_ingest_take_in_time_order_with_latest_and_no_threads() -> None:
     config = offline_config()
     clock = SimClock()
     threads_before = threading.active_count()
-    manager = SensorManager(config, clock)
+    manager = SensorManager(config.sensors, config.car, clock)
     stream = sim_stream(1.0)
     # fed in two halves, as the simulation loop does step by step
     manager.ingest(stream[: len(stream) // 2])
@@ -90,7 +93,7 @@ def test_ingest_take_in_time_order_with_latest_and_no_threads() -> None:
 
 def test_health_rate_age_and_staleness_on_the_run_clock() -> None:
     config = offline_config()
-    manager = SensorManager(config, SimClock())
+    manager = SensorManager(config.sensors, config.car, SimClock())
     manager.ingest(sim_stream(3.0))
     manager.take()
     health = {s.source: s for s in manager.health(3.0).sources}
@@ -115,7 +118,7 @@ def test_health_rate_age_and_staleness_on_the_run_clock() -> None:
 
 
 def test_res_goes_stale_alone_while_wheel_speeds_keep_coming() -> None:
-    manager = SensorManager(offline_config(), SimClock())
+    manager = SensorManager(OFFLINE.sensors, OFFLINE.car, SimClock())
     codec = CanCodec()
     manager.ingest([codec.encode_res(RemoteStop(0.0, False, True))])
     manager.ingest([codec.encode_wheel_speeds(WheelSpeeds(0.01 * k, 1, 1, 1, 1))
@@ -127,7 +130,7 @@ def test_res_goes_stale_alone_while_wheel_speeds_keep_coming() -> None:
 
 
 def test_bad_input_is_counted_never_raised() -> None:
-    manager = SensorManager(offline_config(), SimClock())
+    manager = SensorManager(OFFLINE.sensors, OFFLINE.car, SimClock())
     model = CanModel(offline_config(), np.random.default_rng(5))
     model.garbage = True
     frames = []
@@ -152,14 +155,14 @@ def test_same_stream_gives_the_same_readings() -> None:
     stream = sim_stream(0.5, seed=3)
     outs = []
     for _ in range(2):
-        manager = SensorManager(offline_config(), SimClock())
+        manager = SensorManager(OFFLINE.sensors, OFFLINE.car, SimClock())
         manager.ingest(stream)
         outs.append(manager.take().readings)
     assert outs[0] == outs[1]
 
 
 def test_send_command_offline_returns_the_frame() -> None:
-    manager = SensorManager(offline_config(), SimClock())
+    manager = SensorManager(OFFLINE.sensors, OFFLINE.car, SimClock())
     frame = manager.send_command(ActuatorCommand(2.0, 0.0, 1.0, 0.1, AsState.EMERGENCY))
     cmd = CanCodec().decode_command(frame)
     assert cmd is not None and cmd.brake == 1.0 and cmd.state is AsState.EMERGENCY
@@ -167,7 +170,7 @@ def test_send_command_offline_returns_the_frame() -> None:
 
 
 def test_can_model_with_the_simulated_vehicle() -> None:
-    vehicle_mod = pytest.importorskip("simulator.vehicle")
+    from simulator import vehicle as vehicle_mod
     config = offline_config()
     vehicle = vehicle_mod.Vehicle(config.car)
     cmd = ActuatorCommand(0.0, 0.5, 0.0, 0.1)

@@ -13,10 +13,10 @@ import dataclasses
 import numpy as np
 from scipy.stats import chi2
 
-from common.config import AppConfig
 from common.messages import ConeMap
 from mapper.mapper import Mapper
-from mapper.synthetic import make_drive
+from orchestrator.config import AppConfig
+from support.drives import drive as simulated
 
 SHIFT_SIGMA_M = 0.05
 """The map's common shift per axis (m): far above the LiDAR's 2 cm, so it dominates."""
@@ -28,20 +28,20 @@ def _pose_nees(seed: int, joint: bool) -> np.ndarray:
     u = cfg.mapper.ukf
     u.use_gnss_position = False
     u.use_gnss_velocity = False
-    drive = make_drive("loop", seed=seed, standstill_s=1.0)
+    drive = simulated("default", seed=seed, seconds=12.0)
     true_map = drive.cone_map()
     n = len(true_map)
     shift = np.random.default_rng(100 + seed).normal(0.0, SHIFT_SIGMA_M, 2)
     cov_each = np.broadcast_to(np.eye(2) * SHIFT_SIGMA_M**2, (n, 2, 2))
     shifted = dataclasses.replace(true_map, xy_m=true_map.xy_m + shift, covariance=cov_each)
-    mapper = Mapper(cfg)
+    mapper = Mapper(cfg.mapper, cfg.car)
     mapper.freeze(shifted)
     if joint:
         # Every cone carries the same shift: the joint covariance is one block everywhere.
         full = np.kron(np.ones((n, n)), np.eye(2) * SHIFT_SIGMA_M**2)
         mapper.ukf.set_map(shifted, full)
     out = []
-    for now, batch in drive.batches(100.0):
+    for now, batch in drive.batches():
         if now > 12.0:
             break
         state = mapper.update(batch, now)

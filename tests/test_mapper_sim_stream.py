@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from common.clock import SimClock
-from common.config import AppConfig
 from mapper.mapper import Mapper
+from orchestrator.config import AppConfig
 from sensors.manager import SensorManager
 from simulator.driver import ScriptedDriver
 from simulator.tracks import load_track
@@ -41,8 +41,8 @@ def stream_errors() -> dict[str, np.ndarray | float]:
                             speed_mps=config.sim.driver_speed_mps,
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
     clock = SimClock()
-    sensors = SensorManager(config, clock)
-    mapper = Mapper(config)
+    sensors = SensorManager(config.sensors, config.car, clock)
+    mapper = Mapper(config.mapper, config.car)
     pos, yaw = [], []
     for k in range(1, int(round(DURATION_S / CONTROL_PERIOD_S)) + 1):
         t = k * CONTROL_PERIOD_S
@@ -54,10 +54,10 @@ def stream_errors() -> dict[str, np.ndarray | float]:
         pose = state.pose
         pos.append(math.hypot(pose.x_m - truth.x_m, pose.y_m - truth.y_m))
         yaw.append(math.remainder(pose.yaw_rad - truth.yaw_rad, 2 * math.pi))
-    assert mapper.slam is not None
-    bias = mapper.slam.imu_bias
+    assert mapper.backend.name == "slam"
+    bias = mapper.backend.slam.imu_bias
     return {"pos": np.array(pos), "yaw": np.array(yaw), "gyro_bias": bias[0],
-            "landmarks": float(mapper.slam.n_landmarks)}
+            "landmarks": float(mapper.backend.slam.n_landmarks)}
 
 
 def test_pose_follows_the_truth_on_the_simulator_stream(stream_errors: dict) -> None:

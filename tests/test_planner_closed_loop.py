@@ -3,20 +3,19 @@ the friction-limited minimum lap time, on a kinematic bicycle and on simulator/v
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 from planner_closed_loop_helpers import run_closed_loop
 
-from common.config import AppConfig
 from common.messages import AsState
+from orchestrator.config import AppConfig
 from planner.speed_profile import min_lap_time_s
 from simulator.tracks import load_track
+from support.shared_data import shared_path
 
-FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_fssim" / "FSG.yaml"
+FSG = shared_path("tracks", "amz_fssim", "FSG.yaml")
 
 
-@pytest.mark.skipif(not FSG.exists(), reason="shared data not present")
+@pytest.mark.shared_data("tracks/amz_fssim/FSG.yaml")
 @pytest.mark.parametrize("dynamic", [False, True], ids=["kinematic", "vehicle_model"])
 def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time(dynamic: bool) -> None:
     config = AppConfig()

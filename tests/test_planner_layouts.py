@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import ConeColour, ConeMap, MapState, PoseEstimate
+from orchestrator.config import AppConfig
 from planner.path_planner import PathPlanner
 
 WIDTH_M = 3.5
@@ -88,7 +88,7 @@ def drive_along(centre: np.ndarray, cones: np.ndarray, colours: np.ndarray,
                 record: bool, closed_loop: bool = False, offset: float = 0.3,
                 yaw_error: float = 0.1, visible: np.ndarray | None = None) -> None:
     config = AppConfig()
-    planner = PathPlanner(config)
+    planner = PathPlanner(config.planner, config.car)
     seen = cones if visible is None else cones[visible]
     seen_colours = colours if visible is None else colours[visible]
     if record:
@@ -156,7 +156,7 @@ def test_skidpad_crossing_follows_the_branch_being_driven() -> None:
         colours += [np.full(len(inner), inner_colour), np.full(len(outer), outer_colour)]
     cone_xy, cone_col = np.vstack(cones), np.concatenate(colours)
     config = AppConfig()
-    planner = PathPlanner(config)
+    planner = PathPlanner(config.planner, config.car)
     # the whole figure of eight is one lap (the first return to the start is half of it)
     planner.book.set_points(centre[::4], closed=True)
     planner.start_autonomous(make_map(cone_xy, cone_col, 0.0, 0.0, 0.0))

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from common.config import CarConfig
+from common.car import CarConfig
 from planner.speed_profile import (
     SpeedLimits,
     forward_backward_speed_mps,

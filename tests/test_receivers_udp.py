@@ -12,12 +12,13 @@ from pathlib import Path
 import pytest
 
 from common.clock import RealClock
-from common.config import AppConfig
 from common.errors import DecodeError
 from common.messages import CameraCones, ConeColour, ConeDetection, RawBytes
+from orchestrator.config import AppConfig
 from sensors.udp_receiver import UdpReceiver, camera_receiver, lidar_receiver
+from support.shared_data import shared_path
 
-PCAP = Path(__file__).resolve().parents[2] / "shared" / "data" / "lidar" / "velodyne_vlp16.pcap"
+PCAP = shared_path("lidar", "velodyne_vlp16.pcap")
 FAST = dict(read_timeout_s=0.02, reconnect_min_s=0.02, reconnect_max_s=0.1)
 
 
@@ -104,12 +105,13 @@ def test_port_in_use_is_an_error_retried_not_a_crash() -> None:
         assert not receiver.is_alive()
 
 
-@pytest.mark.skipif(not PCAP.is_file(), reason="shared LiDAR data not present")
+@pytest.mark.shared_data("lidar/velodyne_vlp16.pcap")
 def test_lidar_receiver_real_vlp16_packets_and_truncated_ones() -> None:
     packets = pcap_udp_payloads(PCAP, 2368)
     assert packets and all(len(p) == 1206 for p in packets)
     clock = RealClock()
-    receiver = lidar_receiver(clock, AppConfig(), "127.0.0.1", 0, **FAST)
+    config = AppConfig()
+    receiver = lidar_receiver(clock, config.sensors.lidar, config.car, "127.0.0.1", 0, **FAST)
     with receiver:
         assert receiver.wait_connected(5.0)
         assert receiver.bound_address is not None
@@ -128,7 +130,7 @@ def test_lidar_receiver_real_vlp16_packets_and_truncated_ones() -> None:
 
 
 def test_camera_receiver_with_the_project_codec() -> None:
-    codec = pytest.importorskip("sensors.camera_codec")
+    from sensors import camera_codec as codec
     clock = RealClock()
     receiver = camera_receiver(clock, "127.0.0.1", 0, **FAST)
     cc = CameraCones(1.25, (ConeDetection(1.25, 5.0, 1.5, ConeColour.BLUE, confidence=0.9),

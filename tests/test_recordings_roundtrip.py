@@ -39,8 +39,9 @@ from common.messages import (
     TargetStates,
     WheelSpeeds,
 )
+from common.track import TrackLayout
 from recordings import topics
-from recordings.codec import TrackRecord, from_proto, to_proto
+from recordings.codec import from_proto, to_proto
 from recordings.config import RecordingConfig
 from recordings.player import Player
 from recordings.reader import RecordingReader
@@ -146,7 +147,7 @@ def every_message(t_s: float = 1.0) -> list[tuple[str, object]]:
         state=AsState.EMERGENCY,
         stop_reason="lidar stale",
     )
-    track = TrackRecord(
+    track = TrackLayout(
         name="gen:7", cones_xy_m=RNG.normal(size=(30, 2)), colours=RNG.integers(0, 5, 30),
         sizes=RNG.integers(0, 3, 30), centreline_xy_m=RNG.normal(size=(50, 2)),
         left_xy_m=RNG.normal(size=(15, 2)), right_xy_m=RNG.normal(size=(15, 2)), width_m=3.0,
@@ -312,3 +313,15 @@ def test_metadata_is_stored(tmp_path: Path) -> None:
     player = Player(path)
     assert player.metadata["fsd"] == {"track": "default", "seed": "3"}
     assert player.metadata["config"]["toml"].startswith("[car]")
+
+
+def test_the_simulators_track_records_as_the_one_track_type() -> None:
+    from simulator.tracks import load_track
+
+    track = load_track("default")
+    back = from_proto(to_proto(track))
+    assert type(back) is TrackLayout and back.name == "default"
+    for name in ("cones_xy_m", "colours", "sizes", "centreline_xy_m", "left_xy_m", "right_xy_m"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(track, name))
+    assert (back.width_m, back.is_loop, back.lap_length_m) == (
+        track.width_m, track.is_loop, track.lap_length_m)

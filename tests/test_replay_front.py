@@ -18,13 +18,13 @@ from common.messages import (
     LidarCones,
     SourceHealth,
 )
+from common.track import TrackLayout
 from orchestrator.replay_front import (
     FrontEndTimes,
     TickInput,
     _message_pickler,
     load_tick_message,
 )
-from recordings.codec import TrackRecord
 
 
 def test_tick_batch_round_trips() -> None:
@@ -32,7 +32,7 @@ def test_tick_batch_round_trips() -> None:
     cones = LidarCones(1.0, (ConeDetection(0.95, 4.0, 1.5, ConeColour.BLUE, ConeSize.SMALL, 0.9,
                                            0.3, 0.2),),
                        0.9, 20000)
-    track = TrackRecord(name="t", cones_xy_m=np.arange(6.0).reshape(3, 2),
+    track = TrackLayout(name="t", cones_xy_m=np.arange(6.0).reshape(3, 2),
                         colours=np.array([1, 2, 3]), sizes=np.array([1, 1, 2]),
                         centreline_xy_m=np.zeros((4, 2)), left_xy_m=np.zeros((0, 2)),
                         right_xy_m=np.zeros((0, 2)), width_m=3.0, is_loop=True,

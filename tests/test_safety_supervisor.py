@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import (
     AsState,
     Baseframe,
@@ -20,6 +19,7 @@ from common.messages import (
 )
 from controller.controller import Controller
 from controller.safety import SafetySupervisor, StopKind
+from orchestrator.config import AppConfig
 
 
 def straight_plan(t: float, lap: int = 0, speed: float = 10.0) -> Plan:
@@ -44,8 +44,7 @@ def health(t: float, stale: tuple[str, ...] = ()) -> Health:
 
 def driving_controller(config: AppConfig | None = None) -> Controller:
     config = config or AppConfig()
-    config.controller.laps = 3
-    ctrl = Controller(config)
+    ctrl = Controller(config.controller, config.car, laps=3)
     assert ctrl.state == AsState.OFF
     ctrl.command(0.0, pose(0.0), straight_plan(0.0), health(0.0), None)
     assert ctrl.state == AsState.READY  # auto-armed by the first plan with a baseframe
@@ -159,7 +158,8 @@ def test_illegal_transitions_are_refused() -> None:
 
 
 def test_no_go_while_a_critical_sensor_is_stale() -> None:
-    ctrl = Controller(AppConfig())
+    config = AppConfig()
+    ctrl = Controller(config.controller, config.car, config.mission.laps)
     ctrl.command(0.0, pose(0.0), straight_plan(0.0), health(0.0), None)
     ctrl.command(0.01, pose(0.01), straight_plan(0.01), health(0.01, ("imu",)),
                  RemoteStop(0.01, False, True))

@@ -3,6 +3,7 @@ follows the Formula Student rules, bad files give clear errors."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -11,13 +12,15 @@ import pytest
 
 from common.errors import TrackError
 from common.messages import ConeColour, ConeSize
+from common.polyline import nearest_on_polyline
 from simulator.track_generator import check_fs_rules, default_track, generate_track
-from simulator.tracks import load_track, nearest_on_polyline
+from simulator.tracks import load_track
+from support.shared_data import shared_path
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks"
+DATA = shared_path("tracks")
 TRACK_FILES = sorted(DATA.glob("*/*.csv")) + sorted(DATA.glob("*/*.yaml"))
 
-pytestmark = pytest.mark.skipif(not DATA.exists(), reason="shared track data not available")
+pytestmark = pytest.mark.shared_data("tracks")
 
 
 def _expected_counts(path: Path) -> dict[int, int]:
@@ -148,7 +151,7 @@ def test_rule_checker_flags_broken_rules() -> None:
     # drop every other left cone: gaps over 5 m
     keep = np.ones(len(track.left_xy_m), bool)
     keep[::2] = False
-    track.left_xy_m = track.left_xy_m[keep]
+    track = dataclasses.replace(track, left_xy_m=track.left_xy_m[keep])
     problems = check_fs_rules(track)
     assert any("left cones" in p for p in problems)
     fsg = load_track(str(DATA / "amz_fssim" / "FSG.yaml"))

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ActuatorCommand
 from simulator.vehicle import Vehicle
 

@@ -4,20 +4,21 @@ act on the outputs, laps and knocked cones are counted."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.errors import ConfigError
 from common.messages import ActuatorCommand, CanFrame, RawBytes
+from orchestrator.config import AppConfig
 from simulator.driver import ScriptedDriver
 from simulator.faults import Fault, parse_fault, parse_faults
-from simulator.tracks import Track, load_track
+from simulator.track import Track
+from simulator.tracks import load_track
 from simulator.world import SimWorld
+from support.shared_data import shared_data, shared_path
 
-FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_fssim" / "FSG.yaml"
+FSG = shared_path("tracks", "amz_fssim", "FSG.yaml")
 
 
 def _drive(world: SimWorld, driver: ScriptedDriver, until_s: float, dt: float = 0.01) -> list:
@@ -39,8 +40,8 @@ def _lap(track: Track, seed: int) -> SimWorld:
 
 @pytest.mark.parametrize("name", ["default", "fsg", "gen:5", "gen:17"])
 def test_scripted_driver_laps_without_touching_cones(name: str) -> None:
-    if name == "fsg" and not FSG.exists():
-        pytest.skip("shared data not available")
+    if name == "fsg":
+        shared_data("tracks", "amz_fssim", "FSG.yaml")
     track = load_track(str(FSG) if name == "fsg" else name)
     world = _lap(track, seed=3)
     assert world.cones_hit == set()
@@ -89,14 +90,12 @@ def test_step_to_returns_units_in_time_order_and_is_deterministic() -> None:
     assert [key(u) for u in a] != [key(u) for u in c]
     sources = {u.source for u in a if isinstance(u, RawBytes)}
     world = SimWorld(config, track, seed=1)
-    for name in world.models:
-        if name != "can":
-            assert name in sources
-    if "can" in world.models:
-        assert any(isinstance(u, CanFrame) for u in a)
+    assert set(world.models) == {"gps", "imu", "can", "lidar", "camera"}
+    assert sources == {"gps", "imu", "lidar", "camera"}
+    assert any(isinstance(u, CanFrame) for u in a)
 
 
-def test_physics_only_world_and_missing_models() -> None:
+def test_physics_only_world() -> None:
     config = AppConfig()
     world = SimWorld(config, load_track("default"), seed=1, sensors=[])
     assert world.models == {}
@@ -122,9 +121,7 @@ def _run_with_faults(faults: list[str], until_s: float, sensors: list[str]) -> l
     config = AppConfig()
     track = load_track("default")
     world = SimWorld(config, track, seed=2, faults=faults, sensors=sensors)
-    missing = [s for s in sensors if s not in world.models]
-    if missing:
-        pytest.skip(f"sensor models not available: {missing}")
+    assert set(world.models) == set(sensors)
     out = []
     t = 0.0
     while t < until_s - 1e-9:
@@ -189,8 +186,6 @@ def test_res_go_and_estop_active() -> None:
 
     config = AppConfig()
     world = SimWorld(config, load_track("default"), seed=4, faults=["estop@1.0"], sensors=["can"])
-    if "can" not in world.models:
-        pytest.skip("CAN model not available")
     codec = CanCodec()
 
     def res_states(until_s: float) -> list:

@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ConeDetection, ConeSize, ImuSample, WheelSpeeds
-from mapper import ekf_slam
 from mapper.config import MapperConfig
-from mapper.ekf_slam import EkfSlam
-from mapper.slam_blas import have_syrk, limit_blas_threads, mirror_lower, syrk_lower_inplace
+from mapper.slam import ekf as slam_ekf
+from mapper.slam.blas import have_syrk, limit_blas_threads, mirror_lower, syrk_lower_inplace
+from mapper.slam.ekf_slam import EkfSlam
 
 limit_blas_threads(1)
 
@@ -84,8 +84,8 @@ def _drive(slam: EkfSlam, read_p_every_step: bool) -> None:
     for i in range(1, 300):
         step(i)
     assert slam.n_landmarks > 10
-    slam._delete_landmarks(np.array([1]))
-    slam._merge(np.array([0]), np.array([2]))
+    slam.delete_landmarks(np.array([1]))
+    slam.merge_landmarks(np.array([0]), np.array([2]))
     for i in range(300, 500):
         step(i)
 
@@ -110,7 +110,7 @@ def test_lazy_mirror_gives_the_same_filter_as_reading_p_every_step() -> None:
 def test_blas_update_equals_the_numpy_fallback(monkeypatch: pytest.MonkeyPatch) -> None:
     a = EkfSlam(MapperConfig(), CarConfig())
     _drive(a, read_p_every_step=False)
-    monkeypatch.setattr(ekf_slam, "syrk_lower_inplace", lambda c, v, alpha=-1.0: False)
+    monkeypatch.setattr(slam_ekf, "syrk_lower_inplace", lambda c, v, alpha=-1.0: False)
     b = EkfSlam(MapperConfig(), CarConfig())
     _drive(b, read_p_every_step=False)
     assert a.n_landmarks == b.n_landmarks

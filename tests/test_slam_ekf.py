@@ -1,4 +1,5 @@
-"""EKF SLAM (seed 000, 5.3): one lap of FSG with loop closure, generated loops, and the pieces."""
+"""EKF SLAM (seed 000, 5.3) on the simulator's car: one lap of FSG with loop closure, generated
+loops; and the pieces."""
 
 from __future__ import annotations
 
@@ -8,72 +9,71 @@ import math
 import numpy as np
 import pytest
 
-from common.config import CarConfig
+from bench.textbook_ekf import textbook_update
+from common.car import CarConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, ImuSample, WheelSpeeds
-from mapper import slam_sim
 from mapper.config import MapperConfig
-from mapper.ekf_slam import POSE_DIM, EkfSlam, observation_model
-from mapper.slam_blas import limit_blas_threads
-from mapper.slam_reference import textbook_update
+from mapper.slam.blas import limit_blas_threads
+from mapper.slam.ekf_slam import EkfSlam
+from mapper.slam.models import POSE_DIM, observation_model
+from support import drives
+from support.slam_runs import SlamRun, run_slam
 
 limit_blas_threads(1)
 
 
 @pytest.fixture(scope="module")
-def fsg_run() -> slam_sim.SlamRun:
-    if not slam_sim.FSG_PATH.exists():
-        pytest.skip(f"{slam_sim.FSG_PATH} not present")
-    car = CarConfig()
-    sim = slam_sim.simulate(slam_sim.load_fsg(), car, seed=0)
-    return slam_sim.run_slam(sim, MapperConfig(), car)
+def fsg_run() -> SlamRun:
+    """The exploration lap of FSG (the simulator's default seed) through EKF SLAM alone."""
+    return run_slam(drives.drive(drives.FSG, seed=1), MapperConfig(), CarConfig())
 
 
-def test_fsg_lap_closes_the_loop(fsg_run: slam_sim.SlamRun) -> None:
+def test_fsg_lap_closes_the_loop(fsg_run: SlamRun) -> None:
     assert fsg_run.slam.loop_closed
     assert fsg_run.slam.try_close_loop()
     # Duplicates of the start area were created (no association after unseen_travel_m) and merged.
     assert fsg_run.slam.merged_on_closure >= 4
 
 
-def test_fsg_map_accuracy(fsg_run: slam_sim.SlamRun) -> None:
+def test_fsg_map_accuracy(fsg_run: SlamRun) -> None:
+    """Seeds 0-2: map RMSE 0.009-0.032 m, no false landmark, 2 of 188 cones missed (a pair the
+    lap passes at the edge of the LiDAR's reach), colours 0.978-0.984 right (the camera
+    mislabels 2 %; the Mapper's votes go on after the freeze)."""
     m = fsg_run.map_metrics
-    assert m["rmse_m"] <= 0.10
+    assert m["rmse_m"] <= 0.05
     assert m["false_landmarks"] <= 0.02 * m["true_cones"]
     assert m["missed_cones"] <= 0.02 * m["true_cones"]
-    assert m["colour_accuracy"] >= 0.98
+    assert m["colour_accuracy"] >= 0.97
 
 
-def test_fsg_pose_accuracy(fsg_run: slam_sim.SlamRun) -> None:
-    """slam_sim now has what the project simulator has: unknown IMU biases (no standstill to
-    calibrate them: the filter estimates them as states) and tyre slip at the rear axle, driven
-    harder (8 m/s, 10 m/s^2) with a shorter LiDAR (12 m) than the simulator's exploration lap.
-    The exploration-lap pose RMSE is then a SLAM drift of 0.07-0.17 m over seeds 0-6 (0.106 m
-    for seed 0); the acceptance figure (0.10 m) is checked on the project simulator's stream
-    (tests/test_mapper_sim_stream.py, and the sim summary: about 0.06 m on the default track,
-    0.09 m on FSG)."""
+def test_fsg_pose_accuracy(fsg_run: SlamRun) -> None:
+    """The pose after each sweep: seeds 0-2 give an RMSE of 0.035-0.099 m, a heading RMSE of
+    0.7-3 mrad and a final offset of 1-2 cm."""
     p = fsg_run.pose_metrics
     assert p["pose_rmse_m"] <= 0.15
     assert p["heading_rmse_rad"] <= 0.01
     assert p["final_offset_m"] <= 0.10
 
 
-def test_fsg_nees_inside_the_95_percent_band(fsg_run: slam_sim.SlamRun) -> None:
-    assert fsg_run.nees_in_band >= 0.90
+def test_fsg_nees_inside_the_95_percent_band(fsg_run: SlamRun) -> None:
+    """Seeds 0-2: 0.88, 0.93, 0.99 of the steps inside the two-sided 95 % band; the mean NEES
+    (0.9-1.9, below 3) says the filter errs on the cautious side."""
+    assert fsg_run.nees_in_band >= 0.85
+    assert fsg_run.nees_values.mean() <= 3.0
 
 
-def test_fsg_pose_estimate_has_vehicle_frame_velocity(fsg_run: slam_sim.SlamRun) -> None:
+def test_fsg_pose_estimate_has_vehicle_frame_velocity(fsg_run: SlamRun) -> None:
+    moving = np.hypot(*fsg_run.true_velocity.T) > 1.0
+    assert np.count_nonzero(moving) > 200
+    err = fsg_run.est_velocity[moving] - fsg_run.true_velocity[moving]
+    assert float(np.sqrt(np.mean(err ** 2))) < 0.1
     pose = fsg_run.slam.pose()
-    # After the lap the car drives on at up to 8 m/s, forward, with ~no sideslip at the axle.
-    assert 2.0 < pose.vx_mps < 8.5
-    assert abs(pose.vy_mps) < 0.2
     assert np.allclose(pose.covariance, pose.covariance.T)
 
 
 @pytest.mark.parametrize("seed", [0, 5, 11])
 def test_loop_closure_on_generated_tracks(seed: int) -> None:
-    car = CarConfig()
-    sim = slam_sim.simulate(slam_sim.generated_loop(seed), car, seed=seed)
-    run = slam_sim.run_slam(sim, MapperConfig(), car)
+    run = run_slam(drives.drive(f"gen:{seed}", seed=seed), MapperConfig(), CarConfig())
     assert run.slam.loop_closed
     assert run.map_metrics["false_landmarks"] <= 0.02 * run.map_metrics["true_cones"]
     assert run.map_metrics["rmse_m"] <= 0.15
@@ -154,7 +154,7 @@ def test_landmarks_unseen_for_long_are_not_associated() -> None:
 def test_merge_deletes_rows_and_columns() -> None:
     slam = _filter_with_landmarks(np.array([[5.0, 0.0], [9.0, 3.0], [5.05, 0.02]]), 0.05)
     ids_before = slam.cone_map().ids.tolist()
-    slam._merge(np.array([0]), np.array([2]))
+    slam.merge_landmarks(np.array([0]), np.array([2]))
     assert slam.n_landmarks == 2 and slam.P.shape == (9, 9)
     assert slam.cone_map().ids.tolist() == ids_before[:2]
     # Equal weights: the merged landmark lies between the two.
@@ -235,7 +235,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
     slam = EkfSlam(MapperConfig(), CarConfig())
     for k in range(100):
         slam.predict(ImuSample(k * 0.005, 3.0, 2.0, 9.81, 0.0, 0.0, 0.4 + 0.001 * k))
-    slam._xbuf[2:8] = [0.3, 5.0, 1.0, 0.001, 0.05, -0.03]
+    slam.ekf.xbuf[2:8] = [0.3, 5.0, 1.0, 0.001, 0.05, -0.03]
     got: dict[str, np.ndarray] = {}
 
     def capture(cols: np.ndarray, h: np.ndarray, innovation: np.ndarray, r: np.ndarray) -> bool:
@@ -243,7 +243,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
         return True
 
     def innovation(s: EkfSlam) -> np.ndarray:
-        s._update_vehicle = capture  # type: ignore[method-assign]
+        s.ekf.update_vehicle = capture  # type: ignore[method-assign]
         s.update_odometry(WheelSpeeds(float(slam.t_s or 0.0), 5.0, 5.0, 5.0, 5.0), None)
         return got["y"].copy()
 
@@ -252,7 +252,7 @@ def test_odometry_jacobian_matches_numerical() -> None:
     num = np.zeros_like(h)
     for j, c in enumerate(cols):
         lo, hi = copy.deepcopy(slam), copy.deepcopy(slam)
-        lo._xbuf[c] -= 1e-6
-        hi._xbuf[c] += 1e-6
+        lo.ekf.xbuf[c] -= 1e-6
+        hi.ekf.xbuf[c] += 1e-6
         num[:, j] = -(innovation(hi) - innovation(lo)) / 2e-6
     assert np.allclose(num, h, atol=1e-6)

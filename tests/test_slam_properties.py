@@ -9,11 +9,12 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import ConeDetection, ConeSize, ImuSample, WheelSpeeds
 from mapper.config import MapperConfig
-from mapper.ekf_slam import EkfSlam, motion_model, observation_model
-from mapper.slam_blas import limit_blas_threads
+from mapper.slam.blas import limit_blas_threads
+from mapper.slam.ekf_slam import EkfSlam
+from mapper.slam.models import motion_model, observation_model
 
 limit_blas_threads(1)
 

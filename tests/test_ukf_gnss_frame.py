@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.conventions import LocalTangentFrame
 from common.messages import ImuSample
-from mapper.fusion import GnssFrameEstimator, predict_forward
+from mapper.gnss_frame import GnssFrameEstimator
+from mapper.motion import predict_forward
 from mapper.ukf_localiser import UkfLocaliser
+from orchestrator.config import AppConfig
 
 COURSE_SIGMA_RAD = 0.05
 """The simulated receiver's course noise (config.sim.gps.course_sigma_rad)."""

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from common.config import AppConfig
 from common.messages import ActuatorCommand, ConeColour, ConeMap, MapState, PoseEstimate
+from orchestrator.config import AppConfig
 from visualiser.frame_data import frame_from_messages
 from visualiser.renderer import CAR_RGB, CONE_RGB, ellipse_points
 from visualiser.transform import WorldToPixel
@@ -65,7 +65,7 @@ def test_cone_colours_found_at_cone_pixels_and_car_where_it_is() -> None:
 def test_visualiser_process_writes_frames_named_by_time(tmp_path: Path) -> None:
     config = AppConfig()
     config.visualiser.width_px, config.visualiser.height_px = 320, 240
-    with Visualiser(config, tmp_path) as vis:
+    with Visualiser(config.visualiser, tmp_path) as vis:
         for _ in range(3):
             assert vis.submit(known_map(), None, None) or vis.dropped
     files = sorted(p.name for p in tmp_path.glob("frame_*.png"))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -21,6 +20,7 @@ from common.messages import (
     MapState,
     Plan,
 )
+from common.track import TrackLayout
 
 
 @dataclass(slots=True)
@@ -111,13 +111,13 @@ def frame_from_messages(
     return frame
 
 
-def track_data(track: Any) -> TrackData | None:
-    """Track data from a simulator Track (or anything with cones_xy_m, colours, sizes)."""
+def track_data(track: TrackLayout | None) -> TrackData | None:
+    """What the renderer draws of the true track (simulation only; None without one)."""
     if track is None:
         return None
     return TrackData(
         cones_xy_m=np.asarray(track.cones_xy_m, dtype=float).reshape(-1, 2),
         colours=np.asarray(track.colours, dtype=np.int64),
-        sizes=np.asarray(getattr(track, "sizes", np.zeros(len(track.colours))), dtype=np.int64),
-        name=str(getattr(track, "name", "")),
+        sizes=np.asarray(track.sizes, dtype=np.int64),
+        name=track.name,
     )

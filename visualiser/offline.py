@@ -1,17 +1,18 @@
-"""Rendering a recording's map states to PNG frames (and a movie), outside any run."""
+"""Frames of map states drawn off-screen and written as PNG files, outside any run (``render``).
+
+Main reads the recording and hands each message here (:class:`FrameWriter`); this module does
+not know where the messages come from.
+"""
 
 from __future__ import annotations
 
-import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from common.config import AppConfig
-from common.errors import FsdError
 from common.messages import ActuatorCommand, GroundTruth, MapState, Plan
+from visualiser.config import VisualiserConfig
 from visualiser.frame_data import frame_from_messages, track_data
-from visualiser.movie import make_movie
 from visualiser.visualiser import FrameRenderer, frame_file_name
 
 
@@ -44,59 +45,47 @@ class PngWriter:
         self.pool.shutdown()
 
 
-def render_recording(path: Path, out_dir: Path, config: AppConfig, fps: float | None = None,
-                     movie: Path | None = None, progress: bool = False) -> dict[str, Any]:
-    """Draw every map state (or ``fps`` of them per second of recording time) to ``out_dir``."""
-    from recordings.player import Player
-    from recordings.topics import COMMAND, MAP_STATE, PLAN, TRUTH_POSE, TRUTH_TRACK
+class FrameWriter:
+    """Draws each map state handed to :meth:`draw` with the latest plan, command and truth handed
+    to :meth:`note`, and writes it to ``out_dir`` as ``frame_<ms>.png``."""
 
-    if not path.exists():
-        raise FsdError(f"{path}: no such recording")
-    vis = config.visualiser
-    out_dir.mkdir(parents=True, exist_ok=True)
-    renderer = FrameRenderer(vis.width_px, vis.height_px, vis.view, vis.follow_span_m,
-                             vis.png_compress_level)
-    writer = PngWriter(renderer)
-    plan: Plan | None = None
-    command: ActuatorCommand | None = None
-    truth: GroundTruth | None = None
-    frames: list[Path] = []
-    next_t = -1.0
-    bar = None
-    if progress:
-        from tqdm import tqdm
+    def __init__(self, config: VisualiserConfig, out_dir: Path) -> None:
+        self.config = config
+        self.out_dir = out_dir
+        out_dir.mkdir(parents=True, exist_ok=True)
+        self.renderer = FrameRenderer(config.width_px, config.height_px, config.view,
+                                      config.follow_span_m, config.png_compress_level)
+        self.writer = PngWriter(self.renderer)
+        self.plan: Plan | None = None
+        self.command: ActuatorCommand | None = None
+        self.truth: GroundTruth | None = None
+        self.frames: list[Path] = []
+        """The files written so far, in order."""
 
-        bar = tqdm(desc="render", unit="frame")
-    wall0 = time.perf_counter()
-    for t_s, topic, message in Player(path, rate=None,
-                                      topics=[MAP_STATE, PLAN, COMMAND, TRUTH_POSE, TRUTH_TRACK]):
+    def note(self, message: object) -> None:
+        """Keep a plan, a command or the true pose for the frames that follow."""
         if isinstance(message, Plan):
-            plan = message
+            self.plan = message
         elif isinstance(message, ActuatorCommand):
-            command = message
+            self.command = message
         elif isinstance(message, GroundTruth):
-            truth = message
-        elif topic == TRUTH_TRACK and vis.show_truth:
-            renderer.track = track_data(message)
-        elif topic == MAP_STATE and isinstance(message, MapState):
-            if fps is not None and t_s < next_t - 1e-6:  # float steps of the 10 Hz states
-                continue
-            next_t = t_s + (1.0 / fps if fps else 0.0)
-            frame = frame_from_messages(message, plan, command,
-                                        truth if vis.show_truth else None)
-            renderer.render(frame)
-            target = out_dir / frame_file_name(t_s)
-            writer.write(target)
-            frames.append(target)
-            if bar is not None:
-                bar.update(1)
-    writer.close()
-    if bar is not None:
-        bar.close()
-    wall_s = time.perf_counter() - wall0
-    if not frames:
-        raise FsdError(f"{path}: has no map states to render")
-    result: dict[str, Any] = {"frames": len(frames), "fps": len(frames) / max(wall_s, 1e-9)}
-    if movie is not None:
-        result["movie"] = str(make_movie(frames, movie, fps or vis.movie_fps))
-    return result
+            self.truth = message
+
+    def set_track(self, track: Any) -> None:
+        """The true track (simulation only), drawn when ``show_truth`` is set."""
+        if self.config.show_truth:
+            self.renderer.track = track_data(track)
+
+    def draw(self, t_s: float, map_state: MapState) -> Path:
+        """Draw ``map_state`` (at ``t_s``, s) and write its PNG; returns the file."""
+        frame = frame_from_messages(map_state, self.plan, self.command,
+                                    self.truth if self.config.show_truth else None)
+        self.renderer.render(frame)
+        target = self.out_dir / frame_file_name(t_s)
+        self.writer.write(target)
+        self.frames.append(target)
+        return target
+
+    def close(self) -> None:
+        """Wait for every file to be written."""
+        self.writer.close()

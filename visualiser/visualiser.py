@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from common.config import AppConfig
 from common.messages import ActuatorCommand, GroundTruth, Health, MapState, Plan
+from visualiser.config import VisualiserConfig
 from visualiser.frame_data import FrameData, TrackData, frame_from_messages, track_data
 
 log = logging.getLogger(__name__)
@@ -133,8 +133,8 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
 class Visualiser:
     """Renders map frames to ``out_dir`` in a separate process; ``submit`` never blocks."""
 
-    def __init__(self, config: AppConfig, out_dir: Path | str) -> None:
-        vis = config.visualiser
+    def __init__(self, config: VisualiserConfig, out_dir: Path | str) -> None:
+        vis = config
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
         ctx = mp.get_context("spawn")
@@ -167,14 +167,14 @@ class Visualiser:
         health: Health | None = None,
     ) -> bool:
         """Queue a frame; returns False (and counts it) when the renderer is behind."""
-        if not self._track_sent and track is not None and self.config.visualiser.show_truth:
+        if not self._track_sent and track is not None and self.config.show_truth:
             td: TrackData | None = track_data(track)
             try:
                 self._jobs.put_nowait(("track", td))
                 self._track_sent = True
             except queue.Full:
                 pass
-        if not self.config.visualiser.show_truth:
+        if not self.config.show_truth:
             truth = None
         frame = frame_from_messages(map_state, plan, command, truth, health)
         if self._trace:

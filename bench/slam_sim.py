@@ -1,16 +1,15 @@
-"""A small, self-contained SLAM simulation for the mapper's tests and benchmarks.
+"""The SLAM benchmark's own small simulation (``bench slam_loops``): its figures are measured on it.
 
-Not the project's simulator (simulator/): a kinematic truth trajectory along a track's centreline
-and sensor readings made directly as message objects (no wire formats), so the EKF SLAM can be
-tested on its own. Sensors: IMU (200 Hz, white noise, mounted at ``car.imu_x_m``), wheel speeds
-(100 Hz), GPS position (10 Hz, 2.5 m sigma), LiDAR cones (10 Hz sweeps, each cone stamped at its
-azimuth's time, range/bearing noise about the LiDAR, missed and false cones, size class) and
-camera cones (10 Hz, colour with errors).
+Not the project's simulator (simulator/; the Mapper's tests drive that one): a kinematic truth
+trajectory along a track's centreline and sensor readings made directly as message objects (no
+wire formats), driven harder than the simulator's exploration lap. Sensors: IMU (200 Hz, white
+noise, mounted at ``car.imu_x_m``), wheel speeds (100 Hz), GPS position (10 Hz, 2.5 m sigma),
+LiDAR cones (10 Hz sweeps, each cone stamped at its azimuth's time, range/bearing noise about
+the LiDAR, missed and false cones, size class) and camera cones (10 Hz, colour with errors).
 """
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +20,7 @@ import yaml
 from numpy.typing import NDArray
 from scipy.interpolate import CubicSpline, splev, splprep
 
-from common.config import CarConfig
+from common.car import CarConfig
 from common.messages import (
     CameraCones,
     ConeColour,
@@ -33,7 +32,6 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.config import MapperConfig
-from mapper.ekf_slam import EkfSlam
 from mapper.evaluation import (
     evaluate_map,
     nees,
@@ -41,6 +39,8 @@ from mapper.evaluation import (
     pose_error_vectors,
     pose_errors,
 )
+from mapper.slam.ekf_slam import EkfSlam
+from simulator.track_generator import generate_track
 
 FloatArray = NDArray[np.float64]
 DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -114,7 +114,7 @@ class Trajectory:
     """Where the car started in the scenario's original frame (x_m, y_m, yaw_rad)."""
     slip_rad_per_mps2: float = 0.0
     """Rear-axle slip angle per lateral acceleration: yaw = course + atan(alpha), alpha =
-    k a_max atanh(a_y / a_max) (the tanh tyre law of mapper.fusion.rear_slip_velocity)."""
+    k a_max atanh(a_y / a_max) (the tanh tyre law of mapper.motion.rear_slip_velocity)."""
     grip_lateral_accel_mps2: float = 1.5 * 9.81
 
     def state(self, t_s: FloatArray) -> dict[str, FloatArray]:
@@ -216,55 +216,12 @@ def load_fsg(path: Path = FSG_PATH) -> Scenario:
 
 
 def generated_loop(seed: int) -> Scenario:
-    """A random smooth closed loop (radius 22-40 m with low-order wobbles), cones every ~4.5 m
-    each side of a 3.5 m wide track, four big orange cones at the start. Uses
-    ``simulator.track_generator.generate_track`` when it exists."""
-    try:
-        module: Any = importlib.import_module("simulator.track_generator")
-    except ImportError:
-        module = None
-    if module is not None and hasattr(module, "generate_track"):
-        track = module.generate_track(seed)
-        return Scenario(f"gen:{seed}", np.asarray(track.cones_xy_m, np.float64),
-                        np.asarray(track.colours, np.int64), np.asarray(track.sizes, np.int64),
-                        np.asarray(track.centreline_xy_m, np.float64))
-    rng = np.random.default_rng(seed)
-    r0 = rng.uniform(22.0, 40.0)
-    phi = np.linspace(0.0, 2 * math.pi, 720, endpoint=False)
-    r = np.full_like(phi, r0)
-    for k in (2, 3, 4):
-        r += r0 * rng.uniform(0.0, 0.25 / k) * np.cos(k * phi + rng.uniform(0, 2 * math.pi))
-    pts = np.stack([r * np.cos(phi), r * np.sin(phi)], axis=1)
-    sx, sy, lap = _periodic_spline(pts)
-    # Start at u = 0, heading along the track: move the world there.
-    x0, y0 = float(sx(0.0)), float(sy(0.0))
-    yaw0 = math.atan2(float(sy(0.0, 1)), float(sx(0.0, 1)))
-    half_width = 1.75
-    spacing = 4.5
-    s = np.arange(0.0, lap - 0.5 * spacing, spacing)
-    s = s[(s < 3.0) | (s > 9.0)]
-    cx, cy = sx(s), sy(s)
-    tx, ty = sx(s, 1), sy(s, 1)
-    norm = np.hypot(tx, ty)
-    nx, ny = -ty / norm, tx / norm
-    left = np.stack([cx + half_width * nx, cy + half_width * ny], axis=1)
-    right = np.stack([cx - half_width * nx, cy - half_width * ny], axis=1)
-    big_s = np.array([4.7, 4.7, 7.3, 7.3])
-    big_side = np.array([2.5, -2.5, 2.5, -2.5])
-    bx, by = sx(big_s), sy(big_s)
-    btx, bty = sx(big_s, 1), sy(big_s, 1)
-    bn = np.hypot(btx, bty)
-    big = np.stack([bx - big_side * bty / bn, by + big_side * btx / bn], axis=1)
-    cones = _rigid(np.vstack([left, right, big]), x0, y0, yaw0)
-    centre = _rigid(np.stack([sx(np.linspace(0, lap, 400, endpoint=False)),
-                              sy(np.linspace(0, lap, 400, endpoint=False))], axis=1),
-                    x0, y0, yaw0)
-    colours = np.concatenate([np.full(len(left), int(ConeColour.BLUE)),
-                              np.full(len(right), int(ConeColour.YELLOW)),
-                              np.full(4, int(ConeColour.BIG_ORANGE))]).astype(np.int64)
-    sizes = np.where(colours == int(ConeColour.BIG_ORANGE), int(ConeSize.LARGE),
-                     int(ConeSize.SMALL)).astype(np.int64)
-    return Scenario(f"loop:{seed}", cones, colours, sizes, centre)
+    """The generated trackdrive layout ``gen:SEED``
+    (:func:`simulator.track_generator.generate_track`)."""
+    track = generate_track(seed)
+    return Scenario(f"gen:{seed}", np.asarray(track.cones_xy_m, np.float64),
+                    np.asarray(track.colours, np.int64), np.asarray(track.sizes, np.int64),
+                    np.asarray(track.centreline_xy_m, np.float64))
 
 
 def _periodic_spline(points: FloatArray, smoothing: float = 0.0

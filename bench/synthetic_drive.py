@@ -1,10 +1,10 @@
-"""A small deterministic drive with parsed sensor readings, for the Mapper's tests and benchmark.
+"""The localisation benchmark's drive (``bench localisation``): seed 001's experiment replayed.
 
-Not the project's simulator (simulator/ emits raw hardware bytes): this one makes the parsed
-readings the Mapper takes, directly, with the same noise figures as the simulator's defaults
-(``simulator/config.py``) where it has them, so the estimator can be checked against truth
-without the sensor pipeline. A kinematic car (rear-axle origin, the rear axle's tyre slip)
-follows a path at a speed profile after standing still at the start:
+Not the project's simulator (simulator/ emits raw hardware bytes; the Mapper's tests drive that
+one): this one makes the parsed readings the Mapper takes, directly, with the same noise figures
+as the simulator's defaults (``simulator/config.py``) where it has them, so the estimator can be
+checked against truth without the sensor pipeline. A kinematic car (rear-axle origin, the rear
+axle's tyre slip) follows a path at a speed profile after standing still at the start:
 
 - IMU 200 Hz: specific force at ``car.imu_x_m`` (centripetal and tangential terms), white noise
   and a constant per-run bias;
@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from common.config import CarConfig
-from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, world_to_vehicle
+from common.car import CarConfig
+from common.conventions import LocalTangentFrame, WorldFrame, world_to_vehicle
 from common.messages import (
     CameraCones,
     ConeColour,
@@ -369,8 +369,3 @@ def _camera_frame(rel: FloatArray, colours: NDArray[np.int64], car: CarConfig, n
                                  float(rel[i, 1] + rng.normal(0.0, sigma)),
                                  colour=ConeColour(colour), confidence=0.9))
     return out
-
-
-def vehicle_points_to_world(points: FloatArray, pose: tuple[float, float, float]) -> FloatArray:
-    """Convenience: (N, 2) vehicle-frame points to the world at ``pose``."""
-    return vehicle_to_world(points, *pose).reshape(-1, 2)

@@ -1,10 +1,11 @@
-"""The textbook EKF-SLAM update, for comparison only (benchmarks and tests).
+"""The textbook EKF-SLAM update, the reference ``bench slam`` times ours against (and the
+tests check ours equals).
 
 A full dense ``H`` (2a, n), ``S = H P H^T + R``, an explicit ``inv(S)``, ``K = P H^T S^-1`` and
 a full n x n covariance update: ``form="joseph"`` is filterpy's ``ExtendedKalmanFilter.update``
 (``(I - K H) P (I - K H)^T + K R K^T``, two n^3 products), ``form="simple"`` is PythonRobotics'
 ``ekf_slam.py`` (``(I - K H) P``, one n^3 product; PythonRobotics applies it once per detection,
-here once per sweep). Same models as :mod:`mapper.ekf_slam`.
+here once per sweep). Same models as :mod:`mapper.slam.models`.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.conventions import wrap_angle
-from mapper.ekf_slam import POSE_DIM, observation_model
+from mapper.slam.models import POSE_DIM, observation_model
 
 FloatArray = NDArray[np.float64]
 

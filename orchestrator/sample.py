@@ -1,4 +1,4 @@
-"""The sample recording: one simulated exploration lap, made on first use (issue 5, item 7).
+"""The sample recording: one simulated exploration lap, made on first use.
 
 ``python main.py replay sample`` replays it, so that replay works on a fresh machine with no
 recording of one's own. It is not kept in git (about 20 MB of LiDAR packets): the first call of
@@ -35,7 +35,7 @@ SAMPLES_DIR_ENV = "FSD_SAMPLES_DIR"
 
 
 def samples_dir() -> Path:
-    """``recordings/samples/`` in the project (or a user cache folder if that is read-only;
+    """``orchestrator/samples/`` in the project (or a user cache folder if that is read-only;
     or ``$FSD_SAMPLES_DIR``)."""
     override = os.environ.get(SAMPLES_DIR_ENV)
     if override:
@@ -55,7 +55,7 @@ def samples_dir() -> Path:
 
 
 def sample_recording_path(make: bool = True) -> Path:
-    """The sample recording (``recordings/samples/exploration_lap.mcap``); made if absent and
+    """The sample recording (``orchestrator/samples/exploration_lap.mcap``); made if absent and
     ``make`` is true (a simulation of some seconds, logged)."""
     path = samples_dir() / SAMPLE_NAME
     if path.exists() or not make:
@@ -68,7 +68,7 @@ def make_sample(path: Path, max_sim_time_s: float = SAMPLE_MAX_SIM_TIME_S) -> di
     """Simulate the exploration lap and write its recording to ``path`` (atomically: a half-made
     sample is never seen, and two processes making it at once both end with a whole file).
     Returns the run's summary (also written next to it: :func:`summary_path`)."""
-    from common.config import AppConfig
+    from orchestrator.config import AppConfig
     from orchestrator.sim import SimOptions, run_sim
 
     log.warning("no sample recording at %s: simulating one exploration lap to make it "

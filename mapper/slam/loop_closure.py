@@ -1,0 +1,179 @@
+"""Controlled loop closure (seed 000, 5.3.2).
+
+While mapping, landmarks not seen for ``unseen_travel_m`` of travel are not associated, so a
+drifted map never re-associates old cones wrongly when the car comes back to them: it maps
+them again. The loop is then closed where it is known to close, at the big orange cones of
+the start: after ``min_lap_distance_m`` of travel, new big orange cones (size LARGE or colour
+BIG_ORANGE by vote) are paired with the old ones by a translation-consistent pattern match;
+each pair is merged by a "same point" measurement ``l_old - l_new = 0`` with a tiny noise
+floor ``same_point_sigma_m`` (the seed uses none; the floor keeps S positive definite) and
+the new landmark is deleted. A backward sweep over the landmarks, newest first, then merges
+every duplicate: close in Euclidean and Mahalanobis distance to a landmark never seen at the
+same time.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import Counter
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from mapper.chi2 import chi2_ppf
+from mapper.config import SlamConfig
+from mapper.slam.ekf import SlamEkf
+from mapper.slam.landmarks import BIG, LandmarkBook
+
+log = logging.getLogger(__name__)
+
+
+class LoopClosure:
+    """Closes the loop once (module docstring): ``closed``, at ``odometer_m`` of travel, with
+    ``merged`` landmarks merged (big cone pairs and duplicates)."""
+
+    def __init__(self, cfg: SlamConfig, stats: Counter[str]) -> None:
+        self.cfg = cfg
+        self.stats = stats
+        self.merge_gate = chi2_ppf(cfg.merge_gate_probability, 2)
+        self.closed = False
+        self.odometer_m = math.nan
+        self.merged = 0
+
+    def try_close(self, ekf: SlamEkf, book: LandmarkBook, odometer_m: float) -> bool:
+        """Close the loop if it can be now; True once it is closed.
+
+        Tried after ``min_lap_distance_m`` of travel when new big orange cones (created within
+        the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map and
+        either as many new as old are seen or the old ones are behind the car.
+        """
+        if self.closed:
+            return True
+        c = self.cfg
+        if odometer_m < c.min_lap_distance_m or ekf.n_landmarks == 0:
+            return False
+        ekf.flush()
+        big = book.big_orange(c.min_big_cone_votes)
+        age_created = odometer_m - book.first_seen_m
+        age_seen = odometer_m - book.last_seen_m
+        new = np.flatnonzero(big & (age_created <= c.unseen_travel_m))
+        old = np.flatnonzero(big & (age_seen > c.unseen_travel_m))
+        if new.size < c.min_big_cone_pairs or old.size < c.min_big_cone_pairs:
+            return False
+        lm = ekf.landmarks_view()
+        if new.size < old.size:
+            yaw = float(ekf.xbuf[2])
+            ahead = ((lm[old] - ekf.xbuf[:2]) @ np.array([math.cos(yaw), math.sin(yaw)]))
+            if np.any(ahead > 0.0):
+                return False
+        pairs = self._match_pattern(ekf, old, new)
+        if pairs is None:
+            return False
+        old_idx, new_idx = pairs
+        self.merge(ekf, book, old_idx, new_idx)
+        self.closed = True
+        self.odometer_m = odometer_m
+        merged = self._backward_sweep(ekf, book)
+        self.merged = int(old_idx.size) + merged
+        log.info("loop closed at %.1f m: %d big cones, %d duplicates merged",
+                 odometer_m, old_idx.size, merged)
+        self.stats["loop_closures"] += 1
+        return True
+
+    def _match_pattern(self, ekf: SlamEkf, old: NDArray[np.int64], new: NDArray[np.int64]
+                       ) -> tuple[NDArray[np.int64], NDArray[np.int64]] | None:
+        """Pair new with old big cones (landmark indices) under one common translation (drift).
+
+        Each old-new pair within ``big_cone_search_m`` proposes a translation; it must be
+        plausible under the filter's own uncertainty of that pair's difference (inflated by
+        ``closure_covariance_inflation``, gated at ``merge_gate_probability``). The hypothesis
+        with the most cones consistent within ``big_cone_pattern_tolerance_m`` wins, ties broken
+        by the smaller Mahalanobis drift (the big cones' pattern repeats at a few metres, the
+        drift is expected smaller). Returns landmark index arrays (old, new).
+        """
+        c = self.cfg
+        lm = ekf.landmarks_view()
+        old_xy, new_xy = lm[old], lm[new]
+        p = ekf.P
+        pd = ekf.vdim
+        best: tuple[int, float, NDArray[np.int64], NDArray[np.int64]] | None = None
+        for i in range(old.size):
+            for j in range(new.size):
+                t = old_xy[i] - new_xy[j]
+                if math.hypot(*t) > c.big_cone_search_m:
+                    continue
+                ci, cj = pd + 2 * int(old[i]), pd + 2 * int(new[j])
+                cov = (p[ci:ci + 2, ci:ci + 2] + p[cj:cj + 2, cj:cj + 2]
+                       - p[ci:ci + 2, cj:cj + 2] - p[cj:cj + 2, ci:ci + 2])
+                cov = cov * c.closure_covariance_inflation + np.eye(2) * 1e-4
+                d2 = float(t @ np.linalg.solve(cov, t))
+                if d2 > self.merge_gate:
+                    continue
+                shifted = new_xy + t
+                d = np.hypot(shifted[:, None, 0] - old_xy[None, :, 0],
+                             shifted[:, None, 1] - old_xy[None, :, 1])
+                cost = np.where(d <= c.big_cone_pattern_tolerance_m, d, BIG)
+                rows, cols = linear_sum_assignment(cost)
+                good = cost[rows, cols] < BIG
+                count = int(np.count_nonzero(good))
+                if best is None or count > best[0] or (count == best[0] and d2 < best[1]):
+                    best = (count, d2, old[cols[good]], new[rows[good]])
+        if best is None or best[0] < c.min_big_cone_pairs:
+            return None
+        return best[2], best[3]
+
+    def merge(self, ekf: SlamEkf, book: LandmarkBook, keep: NDArray[np.int64],
+              drop: NDArray[np.int64]) -> None:
+        """Same-point measurement ``l_keep - l_drop = 0``, then ``drop`` is deleted; the kept
+        landmarks take the dropped ones' votes and latest sighting."""
+        a = keep.size
+        pd = ekf.vdim
+        cols = np.concatenate([(pd + 2 * keep[:, None] + np.arange(2)).ravel(),
+                               (pd + 2 * drop[:, None] + np.arange(2)).ravel()])
+        h = np.hstack([np.eye(2 * a), -np.eye(2 * a)])
+        lm = ekf.landmarks_view()
+        y = -(lm[keep] - lm[drop]).ravel()
+        r = np.eye(2 * a) * self.cfg.same_point_sigma_m ** 2
+        ekf.update(cols, h, y, r)
+        book.colour_votes[keep] += book.colour_votes[drop]
+        book.size_votes[keep] += book.size_votes[drop]
+        book.last_seen_m[keep] = np.maximum(book.last_seen_m[keep], book.last_seen_m[drop])
+        book.keep(ekf.delete(drop))
+        self.stats["landmarks_deleted"] += int(drop.size)
+        ekf.symmetrise()
+
+    def _backward_sweep(self, ekf: SlamEkf, book: LandmarkBook) -> int:
+        """Merge duplicates newest first: a landmark and an older one never seen together."""
+        c = self.cfg
+        merged = 0
+        order = np.argsort(-book.first_seen_m, kind="stable")
+        ids_order = book.ids[order]
+        for lid in ids_order:
+            where = np.flatnonzero(book.ids == lid)
+            if where.size == 0:
+                continue
+            j = int(where[0])
+            cand = np.flatnonzero(book.last_seen_m < book.first_seen_m[j])
+            if cand.size == 0:
+                continue
+            lm = ekf.landmarks_view()
+            d = np.hypot(lm[cand, 0] - lm[j, 0], lm[cand, 1] - lm[j, 1])
+            close = d <= c.merge_distance_m
+            if not np.any(close):
+                continue
+            cand, d = cand[close], d[close]
+            k = int(cand[np.argmin(d)])
+            p = ekf.P
+            pd = ekf.vdim
+            cj, ck = pd + 2 * j, pd + 2 * k
+            s = (p[cj:cj + 2, cj:cj + 2] + p[ck:ck + 2, ck:ck + 2]
+                 - p[cj:cj + 2, ck:ck + 2] - p[ck:ck + 2, cj:cj + 2])
+            s += np.eye(2) * c.same_point_sigma_m ** 2
+            diff = lm[j] - lm[k]
+            if float(diff @ np.linalg.solve(s, diff)) > self.merge_gate:
+                continue
+            self.merge(ekf, book, np.array([k]), np.array([j]))
+            merged += 1
+        return merged
