@@ -155,12 +155,6 @@ class WaypointBook:
             idx = np.arange(self.cursor, min(self.cursor + self.served, n))
         return pts[idx]
 
-    def reset_cursor(self, x_m: float, y_m: float) -> None:
-        """Point the cursor at the waypoint nearest (x, y)."""
-        pts = self.points_xy_m
-        if len(pts):
-            self.cursor = int(np.argmin(np.hypot(pts[:, 0] - x_m, pts[:, 1] - y_m)))
-
 
 def cone_midpoints(
     cones_xy_m: ArrayLike,

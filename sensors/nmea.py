@@ -332,10 +332,6 @@ class NmeaParser:
             self._sentence(timestamp_s, sentence, out)
         return out
 
-    def feed_sentence(self, timestamp_s: float, sentence: bytes) -> list[GpsFix]:
-        """Take one complete sentence (with or without CR LF); same as :meth:`feed`."""
-        return self.feed(timestamp_s, sentence if sentence.endswith(b"\n") else sentence + b"\r\n")
-
     def flush(self) -> list[GpsFix]:
         """End of stream: emit the pending epoch's fix, if it has not been emitted."""
         out: list[GpsFix] = []

@@ -247,11 +247,6 @@ def decode_packet(
     return d.points, d.azimuth_deg, d.rings, d.time_offset_s
 
 
-def packet_timestamp_us(payload: bytes) -> int:
-    """The packet's own timestamp: microseconds past the hour of its first firing."""
-    return int.from_bytes(payload[1200:1204], "little")
-
-
 def reject_reason(error: DecodeError) -> str:
     """The reject-counter key of a :class:`DecodeError` raised here (``bad_length``...)."""
     text = str(error)
