@@ -70,8 +70,8 @@ class ControllerConfig:
     understeer_steer_rad: tuple[float, ...] = (0.0, 0.0075, 0.015, 0.022, 0.034, 0.05, 0.065,
                                                0.09)
     """The car's steady-state understeer: the steering (rad) beyond the kinematic atan(L kappa)
-    that a lateral acceleration (m/s^2) needs, from a constant-radius cornering test
-    (``python main.py bench understeer`` measures it on the simulated car). The command is
+    that a lateral acceleration (m/s^2) needs, from a constant-radius cornering test (the
+    defaults: the simulator's car, simulator/vehicle.py, measured so). The command is
     atan(L kappa) + table(v^2 |kappa|), interpolated, held beyond the last point."""
     steer_along_course: bool = True
     """Steer relative to the direction of travel (yaw + sideslip atan(vy/vx)) rather than yaw."""

@@ -236,6 +236,10 @@ class SlamConfig:
     """Largest drift (m) at which old and new big orange cones are still paired."""
     big_cone_pattern_tolerance_m: float = 0.6
     min_big_cone_pairs: int = 2
+    big_cone_lateral_max_m: float = 4.0
+    """The new big cones close the loop only when at least ``min_big_cone_pairs`` of them lie
+    within this distance (m) of the car's line of travel: the car is arriving at the start line,
+    not passing it on a neighbouring stretch of track (a hairpin's straights side by side)."""
     min_big_cone_votes: float = 3.0
     """Votes (detections) a landmark needs before it counts as a big orange cone."""
     closure_covariance_inflation: float = 4.0

@@ -91,6 +91,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     out_dir = options.out_dir or default_out_dir()
     out_dir.mkdir(parents=True, exist_ok=True)
     track = load_track(config.sim.track)
+    track.check_drivable(config.car.width_m)
     faults = [parse_fault(text) for text in options.faults]
     world = SimWorld(config, track, config.sim.seed, faults=faults)
     driver = ScriptedDriver(track, config.car, config.sim.seed,

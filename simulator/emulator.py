@@ -73,6 +73,7 @@ class HardwareEmulator:
         if options.seed is not None:
             config.sim.seed = options.seed
         self.track = load_track(options.track)
+        self.track.check_drivable(config.car.width_m)
         self.world = SimWorld(config, self.track, config.sim.seed)
         self.driver = ScriptedDriver(self.track, config.car, config.sim.seed,
                                      speed_mps=config.sim.driver_speed_mps,

@@ -103,6 +103,22 @@ class Track(TrackLayout):
         """Track width at each centreline sample (M,), from the boundary polylines (m)."""
         return self.left_half_width_m + self.right_half_width_m
 
+    def check_drivable(self, car_width_m: float, cone_radius_m: float = 0.15) -> None:
+        """Raise :class:`TrackError` when the track is narrower than the car between the cones
+        along more than a twentieth of its length (a layout drawn at the wrong scale, or
+        boundaries swapped): no driver, person or planner, can get round it."""
+        widths = self.widths_m
+        if len(widths) == 0:
+            return
+        typical_m = float(np.percentile(widths, 5.0))
+        needed_m = car_width_m + 2.0 * cone_radius_m
+        if typical_m < needed_m:
+            raise TrackError(
+                f"track {self.name!r} is {typical_m:.2f} m wide between cone centres along "
+                f"5 % of its length (narrowest {float(np.min(widths)):.2f} m): the car needs "
+                f"{needed_m:.2f} m ({car_width_m:.2f} m wide, cones {cone_radius_m:.2f} m in "
+                f"radius). Check the layout's scale and its left/right cones.")
+
     @property
     def start_line_s_m(self) -> float:
         """Progress (m) of the start line's centre; NaN when there is no start line."""

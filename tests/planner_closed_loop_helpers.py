@@ -88,13 +88,17 @@ class LoopResult:
     off_track: int
     max_offset_m: float
     max_frame_offset_m: float
+    """Largest distance (m) of the rear axle from the planner's baseframe (tracking error)."""
     max_plan_error_m: float
     """Largest cross-track error (m) of the rear axle from the manoeuvre being followed."""
-    """Largest distance (m) of the rear axle from the planner's baseframe (tracking error)."""
     final_state: AsState
     stop_reason: str
     lateral_peak_mps2: float
     time_s: float
+    trace: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
+    """Every 0.1 s while driving (K, 7): time (s), arc length on the baseframe (m), its
+    curvature there (1/m), the steering command (rad), speed (m/s), the id of the baseframe
+    object (a rebuilt baseframe has a new one) and its length (m)."""
 
 
 class DynamicAdapter:
@@ -150,6 +154,7 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
     max_frame_offset = 0.0
     max_plan_error = 0.0
     lap_times: list[float] = []
+    trace: list[tuple[float, ...]] = []
     last_lap, last_lap_t = 0, math.nan
     t = 0.0
     step = 0
@@ -179,8 +184,14 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
             if planner.frame is not None and controller.state == AsState.DRIVING and t > 2.0:
                 max_frame_offset = max(max_frame_offset, planner.frame.distance_m(car.x_m,
                                                                                   car.y_m))
+            if planner.frame is not None and controller.state == AsState.DRIVING:
+                hint = trace[-1][1] if trace else None
+                s_m, _ = planner.frame.project(car.x_m, car.y_m, hint)
+                kappa = float(planner.frame.sample(s_m)[3])
+                trace.append((t, s_m, kappa, cmd.steering_rad, car.v_mps,
+                              float(id(planner.frame)), planner.frame.length_m))
         if controller.state in (AsState.FINISHED, AsState.EMERGENCY) and car.v_mps < 0.01:
             break
     return LoopResult(lap_times, hits, off, max_offset, max_frame_offset, max_plan_error,
                       controller.state, controller.stop_reason,
-                      car.lateral_peak_mps2, t)
+                      car.lateral_peak_mps2, t, np.asarray(trace, np.float64).reshape(-1, 7))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from planner.waypoints import WaypointBook, cone_midpoints, waypoints_from_cones
 from simulator.tracks import load_track
@@ -48,6 +49,33 @@ def test_close_loop_cuts_one_lap_of_a_longer_drive() -> None:
     pts = book.points_xy_m
     length = np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1))
     assert abs(length - 2 * np.pi * 20) < 3.0
+
+
+@pytest.mark.parametrize(("short_of_start_m", "bridged"), [(8.0, True), (20.0, False)])
+def test_close_loop_bridges_a_drive_that_stopped_short_of_its_start(
+        short_of_start_m: float, bridged: bool) -> None:
+    """The map's loop closed before the car reached the start: a drive ending 8 m short of it,
+    heading for it, is a lap (the periodic baseframe bridges the gap); 20 m short is not."""
+    radius = 20.0
+    a = np.linspace(0.0, 2 * np.pi - short_of_start_m / radius, 300)
+    book = WaypointBook(spacing_m=1.0)
+    for x, y in zip(radius * np.sin(a), radius - radius * np.cos(a), strict=True):
+        book.record(float(x), float(y))
+    assert book.close_loop(bridge_max_m=12.0) is bridged
+    assert book.closed is bridged
+
+
+def test_close_loop_does_not_bridge_to_a_start_beside_the_end() -> None:
+    """A drive whose end passes 6 m beside its start on a neighbouring straight, heading the
+    other way (a hairpin's two straights), is not a lap."""
+    out = [(x, 0.0) for x in np.arange(0.0, 60.0, 1.0)]
+    turn = [(60.0 + 3.0 * math.sin(t), 3.0 - 3.0 * math.cos(t))
+            for t in np.linspace(0.0, math.pi, 10)[1:]]
+    back = [(x, 6.0) for x in np.arange(59.0, 2.0, -1.0)]
+    book = WaypointBook(spacing_m=1.0)
+    for x, y in out + turn + back:
+        book.record(float(x), float(y))
+    assert not book.close_loop(bridge_max_m=12.0)
 
 
 def test_waypoints_from_cones_follow_the_centreline_of_a_track() -> None:

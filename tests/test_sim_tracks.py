@@ -225,3 +225,20 @@ def test_bad_names_and_yaml(tmp_path: Path) -> None:
     path.write_text("cones_left: [[1, 2, 3], 4]\n")
     with pytest.raises(TrackError, match="cones_left"):
         load_track(str(path))
+
+
+def test_a_track_narrower_than_the_car_is_refused_with_its_widths() -> None:
+    """A layout at the wrong scale (0.8 m between cone centres) cannot be driven by anyone:
+    refused, the message giving its width (a little under 0.8 m: the chords between cones on the
+    bend) and what the car needs; a 3 m track passes."""
+    import numpy as np
+
+    from common.errors import TrackError
+    from simulator.track_generator import track_from_centreline
+
+    a = np.linspace(0.0, 2 * np.pi, 300, endpoint=False)
+    centre = np.c_[20.0 * np.cos(a), 20.0 * np.sin(a)]
+    track_from_centreline("wide", centre, 3.0, 0).check_drivable(1.4)
+    narrow = track_from_centreline("narrow", centre, 0.8, 0)
+    with pytest.raises(TrackError, match=r"0\.[67]\d m wide .* needs 1\.70 m"):
+        narrow.check_drivable(1.4)

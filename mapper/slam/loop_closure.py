@@ -47,7 +47,8 @@ class LoopClosure:
 
         Tried after ``min_lap_distance_m`` of travel when new big orange cones (created within
         the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map and
-        either as many new as old are seen or the old ones are behind the car.
+        either as many new as old are seen or the old ones are behind the car, and the new ones
+        are on the car's line of travel (``big_cone_lateral_max_m``).
         """
         if self.closed:
             return True
@@ -63,8 +64,12 @@ class LoopClosure:
         if new.size < c.min_big_cone_pairs or old.size < c.min_big_cone_pairs:
             return False
         lm = ekf.landmarks_view()
+        yaw = float(ekf.xbuf[2])
+        rel = lm[new] - ekf.xbuf[:2]
+        lateral = -rel[:, 0] * math.sin(yaw) + rel[:, 1] * math.cos(yaw)
+        if np.count_nonzero(np.abs(lateral) <= c.big_cone_lateral_max_m) < c.min_big_cone_pairs:
+            return False
         if new.size < old.size:
-            yaw = float(ekf.xbuf[2])
             ahead = ((lm[old] - ekf.xbuf[:2]) @ np.array([math.cos(yaw), math.sin(yaw)]))
             if np.any(ahead > 0.0):
                 return False
