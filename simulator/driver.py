@@ -63,7 +63,7 @@ class ScriptedDriver:
         self._hint = seg
         self.progress_m = s
         v = max(truth.vx_mps, 0.0)
-        lookahead = min(max(0.3 * v + 1.0, 2.0), 8.0)
+        lookahead = min(max(0.4 * v + 1.5, 2.5), 8.0)
         tx, ty, _ = self.track.point_at(s + lookahead)
         dx, dy = tx - truth.x_m, ty - truth.y_m
         c, si = math.cos(yaw), math.sin(yaw)
