@@ -69,13 +69,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulation seeds, e.g. 1-3 or 1,5 (default: the config's)")
     parser.add_argument("--jobs", type=positive_int, default=1,
                         help="simulations side by side (default 1; the machine's cores at most)")
+    parser.add_argument("--mission", choices=("trackdrive", "autocross"), default=None,
+                        help="mission (default: the config's)")
+    parser.add_argument("--exploration", choices=("autonomous", "manual"), default=None,
+                        help="who drives trackdrive's first lap (default: the config's)")
     parser.add_argument("--fault", type=fault_spec, action="append", default=[],
                         metavar="KIND@T[:DURATION]",
                         help="inject a fault on every track (repeatable)")
 
 
 def _one(config: AppConfig, track: str, laps: int, seed: int | None,
-         faults: list[str]) -> dict[str, Any]:
+         faults: list[str], mission: str | None = None,
+         exploration: str | None = None) -> dict[str, Any]:
     import logging
 
     from orchestrator.sim import SimOptions, run_sim
@@ -88,7 +93,8 @@ def _one(config: AppConfig, track: str, laps: int, seed: int | None,
         with tempfile.TemporaryDirectory(prefix="bench_trackdrive_") as tmp:
             summary = run_sim(copy.deepcopy(config), SimOptions(
                 track=track, laps=laps, seed=seed, render=False, record=False,
-                out_dir=Path(tmp), faults=list(faults)))
+                out_dir=Path(tmp), faults=list(faults), mission=mission,
+                exploration=exploration))
         t_min = min_lap_time_s(load_track(track).centreline_xy_m, config.car)
     except Exception as exc:  # a run that fails is a row, not the end of the benchmark
         return {"track": track, "seed": seed, "error": f"{type(exc).__name__}: {exc}",
@@ -136,8 +142,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     results: list[dict[str, Any]] = []
     clean_runs = 0
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-        futures = [pool.submit(_one, config, track, args.laps, seed, args.fault)
-                   for track, seed in runs]
+        futures = [pool.submit(_one, config, track, args.laps, seed, args.fault, args.mission,
+                               args.exploration) for track, seed in runs]
         for future in as_completed(futures):
             s = future.result()
             results.append(s)

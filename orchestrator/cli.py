@@ -32,6 +32,11 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      help="autonomous laps, >= 1 (default: config mission.laps)")
     sim.add_argument("--seed", type=non_negative_int,
                      help="random seed of the simulated world (>= 0)")
+    sim.add_argument("--mission", choices=("trackdrive", "autocross"),
+                     help="trackdrive (laps; default) or autocross (one unseen lap)")
+    sim.add_argument("--exploration", choices=("autonomous", "manual"),
+                     help="who drives trackdrive's first lap (default: config "
+                          "mission.exploration)")
     sim.add_argument("--mapper", choices=("slam", "smoother"), help="mapping backend")
     sim.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     render = sim.add_mutually_exclusive_group()
@@ -114,7 +119,7 @@ def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     options = SimOptions(
         track=args.track, laps=args.laps, seed=args.seed, mapper=args.mapper, out_dir=args.out,
         render=args.render, record=args.record, realtime=args.realtime, faults=args.fault,
-        progress=sys.stderr.isatty(),
+        progress=sys.stderr.isatty(), mission=args.mission, exploration=args.exploration,
     )
     summary = run_sim(config, options)
     if args.json:

@@ -54,7 +54,14 @@ class MissionConfig:
     managers that need them (the Controller its laps, the Mapper the start heading)."""
 
     laps: int = 10
-    """Autonomous laps before the car stops."""
+    """Laps before the car stops: with autonomous exploration every lap counts, the exploring
+    one included (FSD trackdrive: 10); with manual exploration the autonomous laps after it."""
+    mission: str = "trackdrive"
+    """``trackdrive`` (laps of a track it maps on the first) or ``autocross`` (one lap of an
+    unseen track, explored as it goes)."""
+    exploration: str = "manual"
+    """Who drives the first lap of trackdrive: ``autonomous`` (the stack, from the cones it
+    sees) or ``manual`` (a person, seed 002's method; in simulation the scripted driver)."""
     start_heading_enu_rad: float | None = None
     """The world frame's heading in ENU (rad, counter-clockwise from east) when it is known (a
     dual antenna, a magnetometer, a surveyed start); None: the Mapper estimates it from GNSS."""
@@ -83,8 +90,22 @@ def load_config(*paths: str | Path | None) -> AppConfig:
     return config
 
 
+MISSIONS = ("trackdrive", "autocross")
+"""The missions ``sim`` drives (``mission.mission``)."""
+EXPLORATIONS = ("autonomous", "manual")
+
+
 def validate(config: AppConfig) -> None:
     """Cross-field sanity checks that a type alone cannot express."""
+    mission = config.mission
+    if mission.mission not in MISSIONS:
+        raise ConfigError(f"config: 'mission.mission' must be one of {', '.join(MISSIONS)}, "
+                          f"got {mission.mission!r}")
+    if mission.exploration not in EXPLORATIONS:
+        raise ConfigError(f"config: 'mission.exploration' must be one of "
+                          f"{', '.join(EXPLORATIONS)}, got {mission.exploration!r}")
+    if mission.laps < 1:
+        raise ConfigError(f"config: 'mission.laps' must be >= 1, got {mission.laps!r}")
     car = config.car
     for name in ("wheelbase_m", "length_m", "width_m", "max_lateral_accel_mps2",
                  "max_drive_accel_mps2", "max_brake_decel_mps2", "max_steer_rad", "top_speed_mps"):

@@ -50,6 +50,10 @@ class SimOptions:
 
     track: str | None = None
     laps: int | None = None
+    mission: str | None = None
+    """``trackdrive`` or ``autocross`` (None: the config's)."""
+    exploration: str | None = None
+    """``autonomous`` or ``manual`` (None: the config's); autocross is always autonomous."""
     seed: int | None = None
     mapper: str | None = None
     out_dir: Path | None = None
@@ -79,6 +83,13 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         config.sim.track = options.track
     if options.laps is not None:
         config.mission.laps = options.laps
+    if options.mission is not None:
+        config.mission.mission = options.mission
+    if options.exploration is not None:
+        config.mission.exploration = options.exploration
+    if config.mission.mission == "autocross":
+        config.mission.exploration = "autonomous"
+        config.mission.laps = 1
     if options.seed is not None:
         config.sim.seed = options.seed
     if options.mapper is not None:
@@ -173,7 +184,8 @@ class _SimRunner:
         self.recorder = recorder
         self.log = RunLog()
         self.person = Handover(track, driver, world, overrun_m=config.run.exploration_overrun_m,
-                               standstill_s=config.run.handover_standstill_s)
+                               standstill_s=config.run.handover_standstill_s,
+                               autonomous_exploration=config.mission.exploration == "autonomous")
         self.loop_closure_time_s = math.nan
         self.estop: dict[str, float] | None = None
         self._estop_start: tuple[float, float, float, float] | None = None
@@ -298,6 +310,8 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
     summary: dict[str, Any] = {
         "track": track.name,
         "seed": config.sim.seed,
+        "mission": config.mission.mission,
+        "exploration": config.mission.exploration,
         "mapper": config.mapper.backend,
         "finished": result.finished,
         "stop_reason": result.stop_reason,

@@ -91,6 +91,11 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
+    exploration_speed_mps: float = 8.0
+    """Top speed (m/s) while exploring an unseen track from its cones: the profile also brakes
+    to a stop at the end of the track known so far."""
+    start_line_search_m: float = 15.0
+    """Big orange cones this near the start (m) mark the start line of an explored track."""
     fallback_speed_mps: float = 4.0
     """Speed cap of the short-horizon manoeuvres tried last."""
     cone_search_radius_m: float = 30.0

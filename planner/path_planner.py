@@ -17,9 +17,10 @@ from numpy.typing import NDArray
 
 from common.car import CarConfig
 from common.errors import TrackError
-from common.messages import Baseframe, MapState, Plan, TargetStates
+from common.messages import Baseframe, ConeColour, MapState, Plan, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
+from planner.exploration_path import exploration_path
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.racing_line import racing_line
 from planner.speed_profile import (
@@ -65,6 +66,10 @@ class PathPlanner:
         self._last_chosen: Candidate | None = None
         self._s_start: float | None = None
         self._progress_m = 0.0
+        self._origin_xy: tuple[float, float] | None = None
+        """Where the autonomous run started when it explores (no exploration drive)."""
+        self._line_offset_m: float | None = None
+        """Arc length (m) from the start to the start line while exploring autonomously."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
 
@@ -96,8 +101,18 @@ class PathPlanner:
                 logger.info("exploration drive did not close a lap: an open baseframe")
             self._build_frame(self.book.points_xy_m, closed, "waypoints", map_state)
         if self.frame is None:
+            pose = map_state.pose
+            if math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
+                self._origin_xy = (pose.x_m, pose.y_m)
+                logger.info("no exploration drive: exploring from the cones as they are mapped")
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)
+
+    @property
+    def exploring(self) -> bool:
+        """Planning from the cones mapped so far on an open track (the first lap, explored)."""
+        return self.autonomous and self.frame_source == "cones" and (
+            self.frame is None or not self.frame.closed)
 
     # ------------------------------------------------------------------ frame building
     def _build_frame(
@@ -130,7 +145,8 @@ class PathPlanner:
         if source == "waypoints":
             self.book.set_points(frame.xy_m[:: max(int(c.waypoint_spacing_m / frame.step_m), 1)],
                                  closed)
-        logger.info("baseframe from %s: %.1f m, closed=%s", source, frame.length_m, closed)
+        (logger.debug if self.exploring else logger.info)(
+            "baseframe from %s: %.1f m, closed=%s", source, frame.length_m, closed)
         return True
 
     def _race_frame(self, guide: SplineBaseframe, map_state: MapState) -> SplineBaseframe | None:
@@ -170,6 +186,13 @@ class PathPlanner:
             track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
             max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
         )
+        if not closed and self._origin_xy is not None:
+            # exploring: the gates ahead of the car, as far as the cones are known
+            pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
+                                   (pose.x_m, pose.y_m), pose.yaw_rad,
+                                   track_width_m=c.nominal_track_width_m)
+            if len(pts) == 2:  # one gate: a straight line to it
+                pts = pts[0] + np.linspace(0.0, 1.0, 4)[:, None] * (pts[1] - pts[0])
         if len(pts) < 3:
             self.rejects["no_track_in_cones"] += 1
             return False
@@ -190,6 +213,8 @@ class PathPlanner:
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
                 c.two_level_fast_mps, c.two_level_slow_mps, c.two_level_turn_rad,
                 c.two_level_preview_m))
+        if not frame.closed and self._origin_xy is not None:
+            extra = np.minimum(extra, c.exploration_speed_mps)
         return forward_backward_speed_mps(frame.curvature_1pm, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
@@ -214,6 +239,26 @@ class PathPlanner:
             s, _ = self.frame.project(pose.x_m, pose.y_m)
             self._s_hint = s
             self._s_start = s
+            if self._origin_xy is not None and self.frame.closed:
+                self._count_from_origin(map_state, s)
+
+    def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
+        """Laps of an explored track count from the start line (the big orange cones nearest
+        the start, else the start itself), the explored lap included."""
+        assert self.frame is not None and self._origin_xy is not None
+        length = self.frame.length_m
+        s_origin, _ = self.frame.project(*self._origin_xy)
+        cones = map_state.cones
+        big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)] if len(cones) else cones.xy_m
+        if len(big):
+            near = np.hypot(big[:, 0] - self._origin_xy[0], big[:, 1] - self._origin_xy[1])
+            big = big[near < self.config.start_line_search_m]
+        s_line = self.frame.project(*big.mean(axis=0))[0] if len(big) else s_origin
+        self._line_offset_m = (s_line - s_origin) % length
+        self._s_start = s_origin
+        self._progress_m = (s_car_m - s_origin) % length
+        logger.info("laps count from the start line %.1f m past the start; %.1f m driven",
+                    self._line_offset_m, self._progress_m)
 
     def _update_lap(self, s: float) -> None:
         frame = self.frame
@@ -227,6 +272,9 @@ class PathPlanner:
         length = frame.length_m
         delta = math.remainder(s - self._s_hint, length)
         self._progress_m += delta
+        if self._line_offset_m is not None:
+            self.lap = max(self.lap, math.floor((self._progress_m - self._line_offset_m) / length))
+            return
         crossings = math.floor((self._s_start + self._progress_m) / length)
         if length - self._s_start < self.config.lap_min_fraction * length:
             crossings -= 1  # started just before the line: its first crossing is no lap

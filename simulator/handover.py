@@ -68,13 +68,17 @@ class Handover:
     """
 
     def __init__(self, track: Any, driver: Any, world: Any, *, overrun_m: float = 12.0,
-                 standstill_s: float = 1.0) -> None:
+                 standstill_s: float = 1.0, autonomous_exploration: bool = False) -> None:
+        """``autonomous_exploration``: nobody drives; the person only presses "go" once the car
+        has stood ``standstill_s`` at the start, and the stack explores the first lap itself
+        (its time is the first of :meth:`lap_times_s`)."""
         self.track = track
         self.driver = driver
         self.world = world
         self.overrun_m = overrun_m
         self.standstill_s = standstill_s
-        self.phase = Phase.EXPLORATION
+        self.autonomous_exploration = autonomous_exploration
+        self.phase = Phase.STOPPING if autonomous_exploration else Phase.EXPLORATION
         self.laps = LapTimer(track.lap_length_m)
         self.exploration_lap_time_s = math.nan
         self.handover_time_s = math.nan
@@ -119,6 +123,8 @@ class Handover:
                 self._still_since_s = None
         elif crossed:
             self.autonomous_crossings_s.append(self.laps.crossings_s[-1])
+            if self.autonomous_exploration and math.isnan(self.exploration_lap_time_s):
+                self.exploration_lap_time_s = self.laps.crossings_s[-1] - self.handover_time_s
         return crossed
 
     def lap_times_s(self) -> list[float]:

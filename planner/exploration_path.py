@@ -1,0 +1,110 @@
+"""The path ahead through an unseen track, from the cones mapped so far (autonomous exploration).
+
+Gate marching, after FaSTTUBe's ft-fsd-path-planning in spirit (written here from scratch): from
+the car, look ahead along the current heading for the nearest cone on each side of the track
+(blue on the left, yellow on the right; a cone of unknown or orange colour on the side it lies);
+the next path point is the middle of that gate, or half a nominal track width inside a cone
+when the other side is not seen (a corner hides it). Step to it, turn, repeat until no cone is
+ahead. Cones used for a gate are not used again; a cone far beside the path (more than a track
+width) is not a boundary. The path ends where the known track ends: the speed profile brakes
+to a stop there, so the car never outruns what it has seen.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from common.messages import ConeColour
+
+FloatArray = NDArray[np.float64]
+
+BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+
+
+def exploration_path(
+    cones_xy_m: ArrayLike,
+    colours: ArrayLike,
+    start_xy_m: tuple[float, float],
+    start_yaw_rad: float,
+    *,
+    track_width_m: float = 3.5,
+    look_ahead_m: float = 9.0,
+    max_turn_rad: float = 1.0,
+    max_points: int = 40,
+) -> FloatArray:
+    """Path points (K, 2) (m, world frame) from the car at ``start_xy_m`` heading
+    ``start_yaw_rad`` through the gates of ``cones_xy_m`` (N, 2) with their
+    :class:`ConeColour` (N,). K = 1 (the start alone) when no gate is ahead.
+
+    ``look_ahead_m``: how far ahead of the last point a gate's cones may be; ``max_turn_rad``:
+    the largest heading change from one point to the next (a sharper one is a cone of another
+    stretch of track, not the next gate).
+    """
+    xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
+    col = np.asarray(colours, np.int64).reshape(-1)
+    keep = np.all(np.isfinite(xy), axis=1)
+    xy, col = xy[keep], col[keep]
+    point = np.asarray(start_xy_m, np.float64)
+    yaw = float(start_yaw_rad)
+    points = [point.copy()]
+    unused = np.ones(len(xy), bool)
+    half = 0.5 * track_width_m
+    for _ in range(max_points):
+        gate = _next_gate(xy, col, unused, point, yaw, look_ahead_m, track_width_m)
+        if gate is None:
+            break
+        left, right = gate
+        c, s = math.cos(yaw), math.sin(yaw)
+        to_left = np.array([-s, c])
+        if left is not None and right is not None:
+            target = 0.5 * (xy[left] + xy[right])
+        elif left is not None:
+            target = xy[left] - half * to_left
+        else:
+            assert right is not None
+            target = xy[right] + half * to_left
+        for i in (left, right):
+            if i is not None:
+                unused[i] = False
+        step = target - point
+        if float(np.hypot(*step)) < 0.5:
+            continue
+        new_yaw = math.atan2(step[1], step[0])
+        if abs(math.remainder(new_yaw - yaw, 2.0 * math.pi)) > max_turn_rad:
+            break
+        point, yaw = target, new_yaw
+        points.append(point.copy())
+    return np.asarray(points, np.float64)
+
+
+def _next_gate(
+    xy: FloatArray, col: NDArray[np.int64], unused: NDArray[np.bool_], point: FloatArray,
+    yaw: float, look_ahead_m: float, track_width_m: float,
+) -> tuple[int | None, int | None] | None:
+    """Indices of the nearest cone ahead on the left and on the right (either may be None);
+    None when neither side has one."""
+    if not unused.any():
+        return None
+    c, s = math.cos(yaw), math.sin(yaw)
+    rel = xy - point
+    ahead = rel[:, 0] * c + rel[:, 1] * s
+    lateral = -rel[:, 0] * s + rel[:, 1] * c
+    near = unused & (ahead > 0.3) & (ahead < look_ahead_m) & (np.abs(lateral) < track_width_m)
+    is_left = near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0)))
+    is_right = near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0)))
+    distance = np.hypot(ahead, lateral)
+    left = int(np.argmin(np.where(is_left, distance, np.inf))) if is_left.any() else None
+    right = int(np.argmin(np.where(is_right, distance, np.inf))) if is_right.any() else None
+    if left is None and right is None:
+        return None
+    if left is not None and right is not None:
+        width = float(np.hypot(*(xy[left] - xy[right])))
+        if width > 2.0 * track_width_m:  # not one gate: keep the nearer cone
+            if distance[left] <= distance[right]:
+                right = None
+            else:
+                left = None
+    return left, right
