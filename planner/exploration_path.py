@@ -34,6 +34,7 @@ def exploration_path(
     look_ahead_m: float = 9.0,
     max_turn_rad: float = 1.0,
     max_points: int = 40,
+    behind_m: float = 0.0,
 ) -> FloatArray:
     """Path points (K, 2) (m, world frame) from the car at ``start_xy_m`` heading
     ``start_yaw_rad`` through the gates of ``cones_xy_m`` (N, 2) with their
@@ -41,7 +42,9 @@ def exploration_path(
 
     ``look_ahead_m``: how far ahead of the last point a gate's cones may be; ``max_turn_rad``:
     the largest heading change from one point to the next (a sharper one is a cone of another
-    stretch of track, not the next gate).
+    stretch of track, not the next gate). ``behind_m`` > 0: the first gate may be up to that far
+    behind the start, and the path then begins at it instead of at the start (a car that has
+    drifted from the middle of the track sees the offset instead of a path through itself).
     """
     xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     col = np.asarray(colours, np.int64).reshape(-1)
@@ -52,8 +55,9 @@ def exploration_path(
     points = [point.copy()]
     unused = np.ones(len(xy), bool)
     half = 0.5 * track_width_m
-    for _ in range(max_points):
-        gate = _next_gate(xy, col, unused, point, yaw, look_ahead_m, track_width_m)
+    for k in range(max_points):
+        gate = _next_gate(xy, col, unused, point, yaw, look_ahead_m, track_width_m,
+                          behind_m if k == 0 else -0.3)
         if gate is None:
             break
         left, right = gate
@@ -62,14 +66,18 @@ def exploration_path(
         if left is not None and right is not None:
             target = 0.5 * (xy[left] + xy[right])
         elif left is not None:
-            target = xy[left] - half * to_left
+            target = xy[left] - half * _inward(xy, col, left, to_left)
         else:
             assert right is not None
-            target = xy[right] + half * to_left
+            target = xy[right] + half * _inward(xy, col, right, to_left)
         for i in (left, right):
             if i is not None:
                 unused[i] = False
         step = target - point
+        if k == 0 and behind_m > 0.0:
+            points = [target.copy()]  # the path starts at the gate beside the car
+            point = target
+            continue
         if float(np.hypot(*step)) < 0.5:
             continue
         new_yaw = math.atan2(step[1], step[0])
@@ -82,7 +90,7 @@ def exploration_path(
 
 def _next_gate(
     xy: FloatArray, col: NDArray[np.int64], unused: NDArray[np.bool_], point: FloatArray,
-    yaw: float, look_ahead_m: float, track_width_m: float,
+    yaw: float, look_ahead_m: float, track_width_m: float, behind_m: float = -0.3,
 ) -> tuple[int | None, int | None] | None:
     """Indices of the nearest cone ahead on the left and on the right (either may be None);
     None when neither side has one."""
@@ -92,19 +100,45 @@ def _next_gate(
     rel = xy - point
     ahead = rel[:, 0] * c + rel[:, 1] * s
     lateral = -rel[:, 0] * s + rel[:, 1] * c
-    near = unused & (ahead > 0.3) & (ahead < look_ahead_m) & (np.abs(lateral) < track_width_m)
+    near = unused & (ahead > -behind_m) & (ahead < look_ahead_m) & (np.abs(lateral) < track_width_m)
     is_left = near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0)))
     is_right = near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0)))
+    # a cone of the side's own colour is preferred to one of unknown colour (a stray cone)
+    if (is_left & (col == BLUE)).any():
+        is_left &= col == BLUE
+    if (is_right & (col == YELLOW)).any():
+        is_right &= col == YELLOW
     distance = np.hypot(ahead, lateral)
     left = int(np.argmin(np.where(is_left, distance, np.inf))) if is_left.any() else None
     right = int(np.argmin(np.where(is_right, distance, np.inf))) if is_right.any() else None
     if left is None and right is None:
         return None
     if left is not None and right is not None:
-        width = float(np.hypot(*(xy[left] - xy[right])))
-        if width > 2.0 * track_width_m:  # not one gate: keep the nearer cone
+        gap = xy[left] - xy[right]
+        width = float(np.hypot(*gap))
+        along = abs(float(gap[0] * c + gap[1] * s))
+        across = abs(float(-gap[0] * s + gap[1] * c))
+        # not one gate (too wide, or one side's cone is missing and the other side's next one
+        # pairs with it diagonally): keep the nearer cone
+        if width > 2.0 * track_width_m or along > 0.8 * across:
             if distance[left] <= distance[right]:
                 right = None
             else:
                 left = None
     return left, right
+
+
+def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, to_left: FloatArray) -> FloatArray:
+    """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel
+    (``to_left``: the car's left): from the line to its nearest neighbour of the same colour,
+    or the car's own left when it has none within 8 m."""
+    same = np.flatnonzero(col == col[i])
+    same = same[same != i]
+    if len(same):
+        d = np.hypot(*(xy[same] - xy[i]).T)
+        j = int(same[np.argmin(d)])
+        if float(np.min(d)) < 8.0:
+            tangent = xy[j] - xy[i]
+            normal = np.array([-tangent[1], tangent[0]]) / max(float(np.hypot(*tangent)), 1e-9)
+            return normal if float(normal @ to_left) >= 0.0 else -normal
+    return to_left

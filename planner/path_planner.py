@@ -190,7 +190,11 @@ class PathPlanner:
             # exploring: the gates ahead of the car, as far as the cones are known
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                    (pose.x_m, pose.y_m), pose.yaw_rad,
-                                   track_width_m=c.nominal_track_width_m)
+                                   track_width_m=c.nominal_track_width_m, behind_m=2.5)
+            if len(pts) < 3:  # a gate or two: from the car itself
+                pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
+                                       (pose.x_m, pose.y_m), pose.yaw_rad,
+                                       track_width_m=c.nominal_track_width_m)
             if len(pts) == 2:  # one gate: a straight line to it
                 pts = pts[0] + np.linspace(0.0, 1.0, 4)[:, None] * (pts[1] - pts[0])
         if len(pts) < 3:

@@ -1,0 +1,105 @@
+"""Autonomous exploration: the path through the gates of the cones seen so far, and a whole
+autocross on small_track driven by the stack alone."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.messages import ConeColour
+from planner.exploration_path import exploration_path
+
+BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+UNKNOWN, BIG = int(ConeColour.UNKNOWN), int(ConeColour.BIG_ORANGE)
+
+
+def _bend(n: int = 10, radius_m: float = 15.0, half_width_m: float = 1.75,
+          spacing_m: float = 4.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A left bend from the origin heading +x: left cones (n, 2), right cones (n, 2), and the
+    centreline at the same angles (n, 2)."""
+    a = (np.arange(n) + 1) * spacing_m / radius_m
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    return centre + half_width_m * inward, centre - half_width_m * inward, centre
+
+
+def _distance_to(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    return np.min(np.hypot(points[:, None, 0] - line[None, :, 0],
+                           points[:, None, 1] - line[None, :, 1]), axis=1)
+
+
+def _dense(line: np.ndarray) -> np.ndarray:
+    t = np.linspace(0.0, 1.0, 20)[:, None]
+    return np.concatenate([a + t * (b - a) for a, b in zip(line[:-1], line[1:], strict=True)])
+
+
+def test_path_follows_the_middle_of_a_coloured_bend() -> None:
+    left, right, centre = _bend()
+    cones = np.r_[left, right]
+    colours = np.r_[np.full(len(left), BLUE), np.full(len(right), YELLOW)]
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.2)
+
+
+def test_one_side_unseen_keeps_half_a_track_inside_the_other() -> None:
+    """Through a corner only the outer (right, yellow) side is seen: the path runs half a
+    nominal width (1.75 m) inside it, on the centreline within the bend's chord error."""
+    _, right, centre = _bend()
+    path = exploration_path(right, np.full(len(right), YELLOW), (0.0, 0.0), 0.0,
+                            track_width_m=3.5)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.3)
+
+
+def test_cones_of_unknown_colour_take_the_side_they_lie_on() -> None:
+    left, right, centre = _bend()
+    cones = np.r_[left, right]
+    path = exploration_path(cones, np.full(len(cones), UNKNOWN), (0.0, 0.0), 0.0)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.3)
+
+
+def test_a_missing_cone_and_an_extra_cone_beside_the_track_change_little() -> None:
+    """One left cone missing, and a stray cone 6 m beside the track (further than a track
+    width): the path stays within 0.5 m of the centreline."""
+    left, right, centre = _bend()
+    left = np.delete(left, 4, axis=0)
+    stray = centre[5] + np.array([0.0, -6.0])
+    cones = np.r_[left, right, stray[None, :]]
+    colours = np.r_[np.full(len(left), BLUE), np.full(len(right), YELLOW), [UNKNOWN]]
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.5)
+
+
+def test_no_cone_ahead_gives_only_the_start() -> None:
+    left, right, _ = _bend()
+    cones = np.r_[left, right] - np.array([60.0, 0.0])  # all behind the car
+    path = exploration_path(cones, np.full(len(cones), BLUE), (0.0, 0.0), 0.0)
+    assert path.shape == (1, 2)
+    empty = exploration_path(np.zeros((0, 2)), np.zeros(0), (1.0, 2.0), math.pi / 2)
+    assert np.allclose(empty, [[1.0, 2.0]])
+
+
+@pytest.mark.shared_data("tracks/eufs/small_track.csv")
+def test_autocross_on_small_track_is_driven_by_the_stack_alone(tmp_path) -> None:
+    """No person drives: the stack explores its one lap from the cones it maps, no cone
+    touched, and stops finished after the line."""
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+    from support.shared_data import shared_path
+
+    config = AppConfig()
+    track = str(shared_path("tracks", "eufs", "small_track.csv"))
+    summary = run_sim(config, SimOptions(track=track, seed=3, mission="autocross",
+                                         render=False, record=False, out_dir=tmp_path))
+    assert summary["mission"] == "autocross"
+    assert summary["exploration"] == "autonomous"
+    assert summary["finished"], summary["stop_reason"]
+    assert summary["laps_completed"] == 1
+    assert summary["cones_hit"] == 0
+    assert summary["off_track"] == 0
+    assert summary["cone_hits"] == []
