@@ -74,7 +74,7 @@ def exploration_path(
             if i is not None:
                 unused[i] = False
         step = target - point
-        if k == 0 and behind_m > 0.0:
+        if k == 0 and behind_m > 0.0 and float(step @ np.array([c, s])) < 0.5:
             points = [target.copy()]  # the path starts at the gate beside the car
             point = target
             continue
