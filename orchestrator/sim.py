@@ -319,6 +319,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "lap_times_s": lap_times,
         "best_lap_time_s": min(lap_times) if lap_times else None,
         "exploration_lap_time_s": _round(runner.person.exploration_lap_time_s),
+        "handover_time_s": _round(runner.person.handover_time_s),
         "cones_hit": len(world.cones_hit),
         "cone_hits": [
             {"time_s": round(t, 3), "cone": int(i),
