@@ -173,6 +173,10 @@ class LiveMain:
         self.timeouts_s = {s: float(getattr(sc, s).timeout_s) for s in SOURCES}
         self.times = StageTimes()
         self.periods_s: list[float] = []
+        self.plan_ages_s: list[float] = []
+        """Age (s) of the plan followed at each control tick while driving."""
+        self.pose_ages_s: list[float] = []
+        """Age (s) of the mapper's pose at each control tick while driving."""
         self.wake_late_s: list[float] = []
         """How late each tick woke after its scheduled time (s)."""
         self.errors: list[str] = []
@@ -390,6 +394,10 @@ class LiveMain:
         command: ActuatorCommand = self.controller.command(
             now_s, self.pose, self.plan, health, self.remote
         )
+        if self.controller.state == AsState.DRIVING:
+            self.pose_ages_s.append(now_s - self.pose.timestamp_s)
+            if self.plan is not None:
+                self.plan_ages_s.append(now_s - self.plan.timestamp_s)
         return command
 
     def _safe_stop(self) -> None:
@@ -415,6 +423,11 @@ class LiveMain:
                 "control_period_max_ms": round(float(periods_ms.max()), 3),
                 "control_ticks": int(periods_ms.size + 1),
             })
+        for name, ages in (("plan_age", self.plan_ages_s), ("map_age", self.pose_ages_s)):
+            if ages:
+                ages_ms = np.asarray(ages) * 1e3
+                timing[f"{name}_p99_ms"] = round(float(np.percentile(ages_ms, 99)), 3)
+                timing[f"{name}_max_ms"] = round(float(ages_ms.max()), 3)
         timing["realtime_priority"] = self.options.realtime_priority if self.realtime else None
         if self.wake_late_s:
             late_ms = np.asarray(self.wake_late_s) * 1e3

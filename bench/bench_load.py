@@ -1,0 +1,113 @@
+"""The car's loop on a busy machine: the emulate + drive pair while busy processes hold the cores.
+
+Starts ``--busy`` processes (default 2) that spin, then ``emulate`` on small_track (the car over
+real transports: pseudo-terminals, slcan, UDP loopback) and ``drive --laps N`` against it, as
+``tests/test_e2e_emulate.py`` does. When drive ends (or after ``--seconds``) it prints laps, cones
+hit (the emulated world's count), the control period p99 against its target, the plan and map
+age p99 at the control loop, and the stop reason; last line
+``control_p99_over_period_ms=<x> laps=<n> cones_hit=<n>``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from common.cli_types import non_negative_int, positive_float, positive_int
+from orchestrator.config import AppConfig
+
+HELP = "emulate + drive on small_track while busy processes load the cores: laps, p99s, stop"
+
+ROOT = Path(__file__).resolve().parents[1]
+TRACK = ROOT.parent / "shared" / "data" / "tracks" / "eufs" / "small_track.csv"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``bench load``."""
+    parser.add_argument("--busy", type=non_negative_int, default=2,
+                        help="busy processes beside the pair (default 2)")
+    parser.add_argument("--laps", type=positive_int, default=2, help="autonomous laps (2)")
+    parser.add_argument("--seconds", type=positive_float, default=150.0,
+                        help="longest the emulator runs (s, default 150)")
+    parser.add_argument("--track", default=str(TRACK), help="track (default small_track)")
+
+
+def _spin() -> None:
+    while True:
+        pass
+
+
+def _start(args: list[str], folder: Path, name: str) -> subprocess.Popen[bytes]:
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen([sys.executable, "main.py", *args], cwd=ROOT, env=env,
+                            stdout=(folder / f"{name}.out").open("wb"),
+                            stderr=(folder / f"{name}.err").open("wb"))
+
+
+def run(args: argparse.Namespace, config: AppConfig) -> int:
+    """Run the pair under load and print its figures."""
+    del config
+    busy = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(args.busy)]
+    for proc in busy:
+        proc.start()
+    try:
+        with tempfile.TemporaryDirectory(prefix="bench_load_") as tmp:
+            folder = Path(tmp)
+            result = _pair(folder, args)
+    finally:
+        for proc in busy:
+            proc.terminate()
+    timing = result["drive"].get("timing", {})
+    target = float(timing.get("control_period_target_ms", float("nan")))
+    p99 = float(timing.get("control_period_p99_ms", float("nan")))
+    print(f"busy processes      {args.busy}")
+    print(f"laps                {result['drive'].get('laps_completed')}")
+    print(f"cones hit           {result['emulator'].get('cones_hit')}")
+    print(f"control period p99  {p99:.2f} ms (target {target:.2f} ms)")
+    print(f"plan age p99        {timing.get('plan_age_p99_ms')} ms")
+    print(f"map age p99         {timing.get('map_age_p99_ms')} ms")
+    print(f"stop reason         {result['drive'].get('stop_reason')}")
+    print(f"control_p99_over_period_ms={p99 - target:.2f} "
+          f"laps={result['drive'].get('laps_completed')} "
+          f"cones_hit={result['emulator'].get('cones_hit')}")
+    return 0
+
+
+def _pair(folder: Path, args: argparse.Namespace) -> dict[str, Any]:
+    car = folder / "car.toml"
+    emulator_json = folder / "emulator.json"
+    emulator = _start(["emulate", "--track", args.track, "--write-config", str(car),
+                       "--summary", str(emulator_json), "--seconds", str(args.seconds),
+                       "--workdir", str(folder / "ports")], folder, "emulate")
+    end = time.monotonic() + 60.0
+    while not car.exists():
+        if emulator.poll() is not None or time.monotonic() > end:
+            raise SystemExit(f"bench load: emulate wrote no car config:\n"
+                             f"{(folder / 'emulate.err').read_text(errors='replace')[-2000:]}")
+        time.sleep(0.1)
+    drive_dir = folder / "drive"
+    drive = _start(["drive", "--config", str(car), "--laps", str(args.laps), "--out",
+                    str(drive_dir), "--rt-priority", "0"], folder, "drive")
+    try:
+        drive.wait(timeout=args.seconds + 30.0)
+    except subprocess.TimeoutExpired:
+        drive.terminate()
+        drive.wait(timeout=30.0)
+    emulator.terminate()
+    try:
+        emulator.wait(timeout=30.0)
+    except subprocess.TimeoutExpired:
+        emulator.kill()
+    summary = drive_dir / "summary.json"
+    drive_summary = json.loads(summary.read_text()) if summary.exists() else {
+        "stop_reason": "no summary: " + (folder / "drive.err").read_text(errors="replace")[-500:]}
+    emulator_summary = json.loads(emulator_json.read_text()) if emulator_json.exists() else {}
+    return {"drive": drive_summary, "emulator": emulator_summary}
