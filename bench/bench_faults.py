@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from common.cli_types import positive_float, positive_int
+from common.cli_types import non_negative_int, positive_float, positive_int
 from orchestrator.config import AppConfig
 from simulator.faults import KINDS
 
@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=positive_float, default=3.0,
                         help="how long a fault lasts (s; the e-stop lasts); default 3")
     parser.add_argument("--laps", type=positive_int, default=2, help="autonomous laps per run")
-    parser.add_argument("--seed", type=int, default=1, help="simulation seed (default 1)")
+    parser.add_argument("--seed", type=non_negative_int, default=1,
+                        help="simulation seed (default 1)")
     parser.add_argument("--jobs", type=positive_int, default=1, help="runs side by side")
 
 
