@@ -63,6 +63,38 @@ class AsState(enum.IntEnum):
     FINISHED = 4
 
 
+class Mission(enum.IntEnum):
+    """Formula Student Driverless missions, as the car selects them (``MISSION_SELECT`` on CAN;
+    numbers are the wire values and are recorded).
+
+    ``NONE``: no mission selected; ``UNKNOWN``: the car reports a mission the stack cannot run
+    (also what a wire value outside this table decodes to). Neither lets the AS leave OFF.
+    """
+
+    NONE = 0
+    TRACKDRIVE = 1
+    AUTOCROSS = 2
+    ACCELERATION = 3
+    SKIDPAD = 4
+    UNKNOWN = 15
+
+    @property
+    def selectable(self) -> bool:
+        """True for a mission the stack can drive (not NONE or UNKNOWN)."""
+        return self not in (Mission.NONE, Mission.UNKNOWN)
+
+
+class AssiMode(enum.IntEnum):
+    """What the autonomous-system status indicators (ASSI) show (numbers are the wire values of
+    ``AS_STATUS``): off, yellow or blue, continuous or flashing (2..5 Hz)."""
+
+    OFF = 0
+    YELLOW_CONTINUOUS = 1
+    YELLOW_FLASHING = 2
+    BLUE_CONTINUOUS = 3
+    BLUE_FLASHING = 4
+
+
 # ---------------------------------------------------------------------------------------------
 # Raw readings
 # ---------------------------------------------------------------------------------------------
@@ -167,6 +199,30 @@ class RemoteStop:
 
 
 @dataclass(frozen=True, slots=True)
+class MissionSelect:
+    """The mission the car selected (``MISSION_SELECT`` on CAN).
+
+    ``raw_value`` is the number on the wire: for ``Mission.UNKNOWN`` it tells which unknown
+    value was sent."""
+
+    timestamp_s: float
+    mission: Mission
+    raw_value: int = -1
+
+
+@dataclass(frozen=True, slots=True)
+class AsStatus:
+    """What the stack reports to the car (``AS_STATUS`` on CAN): AS state, mission, lap and
+    the ASSI mode for that state. ``lap`` counts laps started (0 before the first)."""
+
+    timestamp_s: float
+    state: AsState
+    mission: Mission
+    lap: int
+    assi: AssiMode
+
+
+@dataclass(frozen=True, slots=True)
 class ConeDetection:
     """One cone seen by a sensor, in the vehicle frame at ``timestamp_s`` (when it was seen).
 
@@ -236,6 +292,7 @@ Reading = (
     | WheelSpeeds
     | SteeringAngle
     | RemoteStop
+    | MissionSelect
     | LidarCones
     | CameraCones
     | CanFrame

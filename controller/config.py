@@ -43,6 +43,23 @@ class SafetyConfig:
 
 
 @dataclass(slots=True)
+class AsStateMachineConfig:
+    """Timings of the FSD autonomous-system state machine (controller/as_state_machine.py)."""
+
+    min_ready_s: float = 5.0
+    """Time in READY before the RES go may start the mission (FS rules T14.8.4: 5 s)."""
+    min_driving_before_move_s: float = 3.0
+    """Time in DRIVING before the car may move (FS rules T14.8.5: 3 s)."""
+    standstill_speed_mps: float = 0.1
+    """At or below this speed the car stands (DRIVING -> FINISHED needs standstill)."""
+    ignore_early_go: bool = True
+    """A go already held when the READY wait ends is ignored until it is released and given
+    again (the rules: only a go after the wait starts the mission). False: a held go counts."""
+    assi_flash_hz: float = 3.0
+    """Flashing frequency of the ASSI lamps (the rules: 2..5 Hz)."""
+
+
+@dataclass(slots=True)
 class ControllerConfig:
     """Throttle and brake PIDs, steering law, rates."""
 
@@ -81,3 +98,4 @@ class ControllerConfig:
     """Brake held at standstill in READY and FINISHED."""
     max_dt_s: float = 0.1
     safety: SafetyConfig = field(default_factory=SafetyConfig)
+    as_state: AsStateMachineConfig = field(default_factory=AsStateMachineConfig)

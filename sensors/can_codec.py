@@ -5,7 +5,11 @@ signals to :mod:`common.messages` types. Decoding never raises on bad input: an 
 not know (or a 29-bit id where the DBC has an 11-bit one) is counted in
 ``rejects["unknown_id"]`` and ignored, a frame of the wrong length in
 ``rejects["bad_length"]``, anything cantools refuses in ``rejects["decode_error"]``, an
-actuator command with a wrong checksum in ``rejects["bad_checksum"]``.
+actuator command with a wrong checksum in ``rejects["bad_checksum"]``. A ``MISSION_SELECT`` whose
+value is no mission the stack can drive (``UNKNOWN`` or a number outside the DBC's table) is
+counted in ``rejects["unknown_mission"]`` (one log line per distinct value) and read as
+``Mission.UNKNOWN``, so a mission selected earlier is never kept by mistake; an ``AS_STATUS``
+with a state, mission or ASSI mode outside its enum in ``rejects["bad_status"]``.
 """
 
 from __future__ import annotations
@@ -22,8 +26,12 @@ from cantools.database.can import Database, Message
 from common.errors import ConfigError
 from common.messages import (
     ActuatorCommand,
+    AssiMode,
     AsState,
+    AsStatus,
     CanFrame,
+    Mission,
+    MissionSelect,
     RemoteStop,
     SteeringAngle,
     WheelSpeeds,
@@ -36,10 +44,21 @@ DEFAULT_DBC_PATH = Path(__file__).resolve().parent / "car.dbc"
 
 RES_STATE_ID = 0x010
 AS_COMMAND_ID = 0x050
+AS_STATUS_ID = 0x051
 WHEEL_SPEEDS_ID = 0x100
 STEERING_ANGLE_ID = 0x101
+MISSION_SELECT_ID = 0x102
 
-CanReading = WheelSpeeds | SteeringAngle | RemoteStop
+CanReading = WheelSpeeds | SteeringAngle | RemoteStop | MissionSelect
+
+
+def mission_from_wire(value: int) -> Mission | None:
+    """The :class:`Mission` of a ``MISSION`` value on the wire; None for a number outside the
+    DBC's table (never raises)."""
+    try:
+        return Mission(int(value))
+    except ValueError:
+        return None
 
 
 def command_checksum(arbitration_id: int, data: bytes) -> int:
@@ -84,11 +103,14 @@ class CanCodec:
         self.rejects: collections.Counter[str] = collections.Counter()
         self.counts: collections.Counter[str] = collections.Counter()
         self._counters: collections.Counter[int] = collections.Counter()
+        self._unknown_missions_logged: set[int] = set()
         for name, frame_id in (
             ("RES_STATE", RES_STATE_ID),
             ("AS_COMMAND", AS_COMMAND_ID),
             ("WHEEL_SPEEDS", WHEEL_SPEEDS_ID),
             ("STEERING_ANGLE", STEERING_ANGLE_ID),
+            ("AS_STATUS", AS_STATUS_ID),
+            ("MISSION_SELECT", MISSION_SELECT_ID),
         ):
             message = self._by_id.get(frame_id)
             if message is not None and message.name != name:
@@ -136,8 +158,23 @@ class CanCodec:
         if fid == RES_STATE_ID:
             self.counts["res"] += 1
             return [RemoteStop(t, bool(s["RES_EMERGENCY"]), bool(s["RES_GO"]))]
+        if fid == MISSION_SELECT_ID:
+            self.counts["mission"] += 1
+            return [self._mission(t, int(s["MISSION"]))]
         self.counts[message.name.lower()] += 1
         return []
+
+    def _mission(self, timestamp_s: float, raw: int) -> MissionSelect:
+        mission = mission_from_wire(raw)
+        if mission is not None and mission != Mission.UNKNOWN:
+            return MissionSelect(timestamp_s, mission, raw)
+        self.rejects["unknown_mission"] += 1
+        if raw not in self._unknown_missions_logged:
+            self._unknown_missions_logged.add(raw)
+            known = ", ".join(f"{m.value} {m.name.lower()}" for m in Mission if m.selectable)
+            logger.warning("MISSION_SELECT: mission value %d is no mission the stack can drive"
+                           " (known: %s); read as UNKNOWN", raw, known)
+        return MissionSelect(timestamp_s, Mission.UNKNOWN, raw)
 
     def decode_command(self, frame: CanFrame) -> ActuatorCommand | None:
         """The actuator command in an AS_COMMAND frame; None (counted) when it is not valid."""
@@ -158,6 +195,22 @@ class CanCodec:
                                    float(s["STEERING_CMD"]), state)
         except ValueError:
             self.rejects["bad_command"] += 1
+            return None
+
+    def decode_as_status(self, frame: CanFrame) -> AsStatus | None:
+        """The status in an AS_STATUS frame; None (counted) when it is not valid."""
+        if frame.arbitration_id != AS_STATUS_ID:
+            return None
+        decoded = self.decode_signals(frame)
+        if decoded is None:
+            return None
+        _, s = decoded
+        try:
+            return AsStatus(frame.timestamp_s, AsState(int(s["AS_STATUS_STATE"])),
+                            Mission(int(s["AS_STATUS_MISSION"])), int(s["LAP_COUNTER"]),
+                            AssiMode(int(s["ASSI_MODE"])))
+        except ValueError:
+            self.rejects["bad_status"] += 1
             return None
 
     # -- encoding -------------------------------------------------------------------------
@@ -200,3 +253,16 @@ class CanCodec:
         data = bytearray(frame.data)
         data[-1] = command_checksum(AS_COMMAND_ID, bytes(data))
         return CanFrame(frame.timestamp_s, AS_COMMAND_ID, bytes(data))
+
+    def encode_mission(self, ms: MissionSelect) -> CanFrame:
+        """A MISSION_SELECT frame (what the car sends) with its alive counter; the wire value
+        is ``int(ms.mission)``."""
+        return self._encode(MISSION_SELECT_ID, ms.timestamp_s, {
+            "MISSION": float(int(ms.mission)), "MISSION_COUNTER": self._counter(MISSION_SELECT_ID)})
+
+    def encode_as_status(self, st: AsStatus) -> CanFrame:
+        """An AS_STATUS frame with its alive counter (the lap saturates at 255)."""
+        return self._encode(AS_STATUS_ID, st.timestamp_s, {
+            "AS_STATUS_STATE": float(int(st.state)), "ASSI_MODE": float(int(st.assi)),
+            "AS_STATUS_MISSION": float(int(st.mission)),
+            "AS_STATUS_COUNTER": self._counter(AS_STATUS_ID), "LAP_COUNTER": float(st.lap)})

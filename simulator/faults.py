@@ -4,10 +4,12 @@ Kinds:
 - ``estop``: the remote emergency stop is pressed at T (RES frames over CAN report emergency).
 - ``gps-dropout``: no GPS sentences from T (for DURATION, default for ever).
 - ``lidar-dead``: no LiDAR packets from T.
+- ``camera-dead``: no camera datagrams from T, so no cone colours (the cones the LiDAR sees
+  stay of unknown colour).
 - ``imu-nan``: IMU packets carry NaN values from T.
 - ``can-garbage``: random CAN frames with unknown ids and wrong lengths are mixed in from T.
 
-Examples: ``estop@30``, ``gps-dropout@12:5``, ``lidar-dead@40:2.5``.
+Examples: ``estop@30``, ``gps-dropout@12:5``, ``lidar-dead@40:2.5``, ``camera-dead@0``.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 
 from common.errors import ConfigError
 
-KINDS = ("estop", "gps-dropout", "lidar-dead", "imu-nan", "can-garbage")
+KINDS = ("estop", "gps-dropout", "lidar-dead", "camera-dead", "imu-nan", "can-garbage")
 
 _PATTERN = re.compile(r"^\s*([a-z-]+)\s*@\s*([0-9.eE+-]+)\s*(?::\s*([0-9.eE+-]+|inf))?\s*$")
 

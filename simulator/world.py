@@ -44,7 +44,7 @@ SENSOR_MODELS: tuple[tuple[str, type], ...] = (
 
 RawUnit = RawBytes | CanFrame
 
-_FAULT_SOURCE = {"gps-dropout": "gps", "lidar-dead": "lidar"}
+_FAULT_SOURCE = {"gps-dropout": "gps", "lidar-dead": "lidar", "camera-dead": "camera"}
 
 
 def _timestamp(unit: RawUnit) -> float:
@@ -268,6 +268,9 @@ class SimWorld:
         lidar = models.get("lidar")
         if lidar is not None:
             lidar.dead = self._active("lidar-dead", t)
+        camera = models.get("camera")
+        if camera is not None:
+            camera.dead = self._active("camera-dead", t)
         imu = models.get("imu")
         if imu is not None:
             imu.inject_nan = self._active("imu-nan", t)

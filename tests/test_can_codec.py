@@ -15,7 +15,9 @@ from common.messages import (
 )
 from sensors.can_codec import (
     AS_COMMAND_ID,
+    AS_STATUS_ID,
     DEFAULT_DBC_PATH,
+    MISSION_SELECT_ID,
     RES_STATE_ID,
     STEERING_ANGLE_ID,
     WHEEL_SPEEDS_ID,
@@ -28,7 +30,8 @@ def test_dbc_loads_and_documents_every_frame() -> None:
     db = cantools.database.load_file(str(DEFAULT_DBC_PATH))
     names = {m.frame_id: m.name for m in db.messages}
     assert names == {RES_STATE_ID: "RES_STATE", AS_COMMAND_ID: "AS_COMMAND",
-                     WHEEL_SPEEDS_ID: "WHEEL_SPEEDS", STEERING_ANGLE_ID: "STEERING_ANGLE"}
+                     WHEEL_SPEEDS_ID: "WHEEL_SPEEDS", STEERING_ANGLE_ID: "STEERING_ANGLE",
+                     AS_STATUS_ID: "AS_STATUS", MISSION_SELECT_ID: "MISSION_SELECT"}
     for message in db.messages:
         assert message.comment, message.name
         assert message.cycle_time, message.name
