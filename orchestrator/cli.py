@@ -50,8 +50,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      help="pace the simulation to the wall clock")
     sim.add_argument("--fault", type=fault_spec, action="append", default=[],
                      metavar="KIND@T[:DURATION]",
-                     help="inject a fault: estop, gps-dropout, lidar-dead, imu-nan, can-garbage, camera-dead "
-                     "(repeatable)")
+                     help="inject a fault: estop, gps-dropout, lidar-dead, imu-nan, can-garbage, "
+                     "camera-dead (repeatable)")
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
     sim.set_defaults(func=_sim)
 
