@@ -23,6 +23,9 @@ FloatArray = NDArray[np.float64]
 
 BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
 
+MIN_STEP_M = 1.5
+"""A gate nearer than this ahead of the last point (m) is passed, not stepped to."""
+
 
 def exploration_path(
     cones_xy_m: ArrayLike,
@@ -78,8 +81,8 @@ def exploration_path(
             points = [target.copy()]  # the path starts at the gate beside the car
             point = target
             continue
-        if float(np.hypot(*step)) < 0.5:
-            continue
+        if float(step @ np.array([c, s])) < MIN_STEP_M:
+            continue  # a gate at the car's side: too near to say which way the track goes
         new_yaw = math.atan2(step[1], step[0])
         if abs(math.remainder(new_yaw - yaw, 2.0 * math.pi)) > max_turn_rad:
             break
