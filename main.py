@@ -90,6 +90,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _setup_logging(verbosity: int) -> None:
     level = logging.WARNING if verbosity <= 0 else logging.INFO if verbosity == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    # long runs report their progress (a plain line when not on a terminal) at any verbosity
+    logging.getLogger("progress").setLevel(min(level, logging.INFO))
 
 
 def cli(argv: Sequence[str] | None = None) -> int:

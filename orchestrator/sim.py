@@ -42,6 +42,10 @@ from simulator.tracks import load_track
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
+progress_log = logging.getLogger("progress")
+
+PROGRESS_LINE_S = 5.0
+"""Wall time (s) between two plain progress lines when stderr is not a terminal."""
 
 
 @dataclass
@@ -215,7 +219,9 @@ class _SimRunner:
             if self.recorder is not None and k % 10 == 0:
                 self.recorder.write(TRUTH_POSE, truth, t_s)
             self._observe(t_s, truth, command)
-            progress.update(t_s, len(self.person.autonomous_crossings_s), self.person.phase)
+            laps_done = self.person.lap_times_s()
+            progress.update(t_s, len(laps_done), self.person.phase,
+                            laps_done[-1] if laps_done else None)
             done, reason, ok = self._done(t_s, truth)
             if done:
                 stop_reason, finished = reason, ok
@@ -273,24 +279,34 @@ class _SimRunner:
 
 
 class _Progress:
-    """A one-line progress bar on stderr for long runs (tqdm), when asked for."""
+    """Progress of a long run: a one-line bar on stderr (tqdm) when ``bar`` (a terminal), else
+    a plain log line every :data:`PROGRESS_LINE_S` of wall time (CI, logs): simulated time,
+    laps done of N, the last lap time and the real-time factor."""
 
-    def __init__(self, enabled: bool, laps: int) -> None:
+    def __init__(self, bar: bool, laps: int) -> None:
         self.bar = None
-        if enabled:
+        if bar:
             from tqdm import tqdm
 
             self.bar = tqdm(total=laps, desc="sim", unit="lap", leave=False)
+        self.total = laps
         self._laps = 0
+        self._wall0 = time.perf_counter()
+        self._next_line_s = PROGRESS_LINE_S
 
-    def update(self, t_s: float, laps: int, phase: str) -> None:
-        if self.bar is None:
-            return
-        if laps != self._laps:
-            self.bar.update(laps - self._laps)
-            self._laps = laps
-        if int(t_s * 10) % 10 == 0:
-            self.bar.set_postfix_str(f"t={t_s:.0f}s {phase}", refresh=False)
+    def update(self, t_s: float, laps: int, phase: str, last_lap_s: float | None = None) -> None:
+        if self.bar is not None:
+            if laps != self._laps:
+                self.bar.update(laps - self._laps)
+            if int(t_s * 10) % 10 == 0:
+                self.bar.set_postfix_str(f"t={t_s:.0f}s {phase}", refresh=False)
+        self._laps = laps
+        wall = time.perf_counter() - self._wall0
+        if self.bar is None and wall >= self._next_line_s:
+            self._next_line_s = wall + PROGRESS_LINE_S
+            last = f", last lap {last_lap_s:.2f} s" if last_lap_s else ""
+            progress_log.info("sim: t=%.0f s, %s, laps %d of %d%s, %.1fx real time", t_s,
+                              phase, laps, self.total, last, t_s / max(wall, 1e-9))
 
     def close(self) -> None:
         if self.bar is not None:
