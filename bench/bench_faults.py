@@ -55,6 +55,7 @@ def _run(config: AppConfig, track: str, laps: int, seed: int, faults: list[str],
     from orchestrator.sim import SimOptions, run_sim
 
     logging.getLogger().setLevel(logging.ERROR)
+    logging.getLogger("progress").setLevel(logging.WARNING)
     wall0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="bench_faults_") as tmp:
         summary = run_sim(copy.deepcopy(config), SimOptions(

@@ -88,6 +88,7 @@ def _one(config: AppConfig, track: str, laps: int, seed: int | None,
     from simulator.tracks import load_track
 
     logging.getLogger().setLevel(logging.ERROR)  # the table is the output; warnings are many
+    logging.getLogger("progress").setLevel(logging.WARNING)
     wall0 = time.perf_counter()
     try:
         with tempfile.TemporaryDirectory(prefix="bench_trackdrive_") as tmp:
