@@ -94,6 +94,9 @@ class PlannerConfig:
     exploration_speed_mps: float = 8.0
     """Top speed (m/s) while exploring an unseen track from its cones: the profile also brakes
     to a stop at the end of the track known so far."""
+    exploration_start_m: float = 3.0
+    """While exploring, the path's curvature over its first metres (from the car to the middle
+    of the track) does not set the speed profile; the manoeuvre's own curvature is checked."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     fallback_speed_mps: float = 4.0

@@ -208,8 +208,17 @@ class PathPlanner:
     def _profile(self, frame: SplineBaseframe) -> FloatArray:
         c = self.config
         ds = np.full(len(frame.s_m) if frame.closed else len(frame.s_m) - 1, frame.step_m)
+        kappa = frame.curvature_1pm
+        exploring = not frame.closed and self._origin_xy is not None
+        if exploring:
+            # the path through the gates starts at the car: its first metres bend from where
+            # the car is to the middle of the track, which the manoeuvre does, checked against
+            # its own curvature; the speed comes from the track's bends beyond
+            kappa = kappa.copy()
+            n0 = min(int(c.exploration_start_m / frame.step_m), len(kappa) - 1)
+            kappa[:n0] = kappa[n0]
         extra = steering_rate_speed_limit_mps(
-            frame.curvature_1pm, frame.step_m, self.car.wheelbase_m,
+            kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
         if c.speed_mode == "two_level":
@@ -217,9 +226,9 @@ class PathPlanner:
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
                 c.two_level_fast_mps, c.two_level_slow_mps, c.two_level_turn_rad,
                 c.two_level_preview_m))
-        if not frame.closed and self._origin_xy is not None:
+        if exploring:
             extra = np.minimum(extra, c.exploration_speed_mps)
-        return forward_backward_speed_mps(frame.curvature_1pm, ds, self.limits, frame.closed,
+        return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
 
