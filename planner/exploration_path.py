@@ -16,12 +16,17 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
 
 FloatArray = NDArray[np.float64]
 
 BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+UNKNOWN = int(ConeColour.UNKNOWN)
+
+SAME_CONE_M = 0.25
+"""Two landmarks nearer than this (m) are one cone: cones stand further apart."""
 
 MIN_STEP_M = 1.5
 """A gate nearer than this ahead of the last point (m) is passed, not stepped to."""
@@ -52,7 +57,7 @@ def exploration_path(
     xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     col = np.asarray(colours, np.int64).reshape(-1)
     keep = np.all(np.isfinite(xy), axis=1)
-    xy, col = xy[keep], col[keep]
+    xy, col = _one_per_cone(xy[keep], col[keep])
     point = np.asarray(start_xy_m, np.float64)
     yaw = float(start_yaw_rad)
     points = [point.copy()]
@@ -91,6 +96,24 @@ def exploration_path(
     return np.asarray(points, np.float64)
 
 
+def _one_per_cone(xy: FloatArray, col: NDArray[np.int64]) -> tuple[FloatArray, NDArray[np.int64]]:
+    """One point per physical cone: landmarks nearer than ``SAME_CONE_M`` to another are the
+    same cone mapped twice (before the loop closes, the SLAM does not associate a cone it saw
+    long ago: seed 000 5.3.2; across a narrow part of the track it sees it again). The one of a
+    known colour is kept."""
+    if len(xy) < 2:
+        return xy, col
+    pairs = cKDTree(xy).query_pairs(SAME_CONE_M, output_type="ndarray")
+    if not len(pairs):
+        return xy, col
+    drop = np.zeros(len(xy), bool)
+    for i, j in pairs:
+        if drop[i] or drop[j]:
+            continue
+        drop[i if col[i] == UNKNOWN and col[j] != UNKNOWN else j] = True
+    return xy[~drop], col[~drop]
+
+
 def _next_gate(
     xy: FloatArray, col: NDArray[np.int64], unused: NDArray[np.bool_], point: FloatArray,
     yaw: float, look_ahead_m: float, track_width_m: float, behind_m: float = -0.3,
@@ -103,17 +126,18 @@ def _next_gate(
     rel = xy - point
     ahead = rel[:, 0] * c + rel[:, 1] * s
     lateral = -rel[:, 0] * s + rel[:, 1] * c
-    near = unused & (ahead > -behind_m) & (ahead < look_ahead_m) & (np.abs(lateral) < track_width_m)
-    is_left = near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0)))
-    is_right = near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0)))
-    # a cone of the side's own colour is preferred to one of unknown colour (a stray cone)
-    if (is_left & (col == BLUE)).any():
-        is_left &= col == BLUE
-    if (is_right & (col == YELLOW)).any():
-        is_right &= col == YELLOW
     distance = np.hypot(ahead, lateral)
-    left = int(np.argmin(np.where(is_left, distance, np.inf))) if is_left.any() else None
-    right = int(np.argmin(np.where(is_right, distance, np.inf))) if is_right.any() else None
+    left = right = None
+    # the cones within a track width to the side; a side that has none there is looked for a
+    # half width further (in a bend the far side's next cone lies wide of the heading)
+    for reach_m in (track_width_m, 1.5 * track_width_m):
+        near = unused & (ahead > -behind_m) & (ahead < look_ahead_m) & (np.abs(lateral) < reach_m)
+        if left is None:
+            left = _nearest(near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0))),
+                            col == BLUE, distance)
+        if right is None:
+            right = _nearest(near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0))),
+                             col == YELLOW, distance)
     if left is None and right is None:
         return None
     if left is not None and right is not None:
@@ -129,6 +153,17 @@ def _next_gate(
             else:
                 left = None
     return left, right
+
+
+def _nearest(candidates: NDArray[np.bool_], own_colour: NDArray[np.bool_],
+             distance: FloatArray) -> int | None:
+    """Index of the nearest candidate, one of the side's own colour before one of unknown
+    colour (a stray cone); None when there is no candidate."""
+    if (candidates & own_colour).any():
+        candidates = candidates & own_colour
+    if not candidates.any():
+        return None
+    return int(np.argmin(np.where(candidates, distance, np.inf)))
 
 
 def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, to_left: FloatArray) -> FloatArray:

@@ -27,6 +27,7 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
+    steering_angle_speed_limit_mps,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
@@ -119,6 +120,7 @@ class PathPlanner:
         self, points: FloatArray, closed: bool, source: str, map_state: MapState
     ) -> bool:
         c = self.config
+        exploring = source == "cones" and not closed and self._origin_xy is not None
         try:
             frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
                                     smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
@@ -128,7 +130,9 @@ class PathPlanner:
                 raced = self._race_frame(frame, map_state)
             if raced is not None:
                 frame = raced
-            elif c.centre_on_cones and len(cones) >= 8:
+            elif c.centre_on_cones and len(cones) >= 8 and not exploring:
+                # (an explored path runs through the gates' middles already; centring it on
+                # every cone within reach also pulls it toward another stretch of the track)
                 frame = centre_on_cones(frame, cones.xy_m, cones.colour,
                                         max_shift_m=c.max_centring_shift_m,
                                         resample_m=c.baseframe_resample_m,
@@ -186,6 +190,11 @@ class PathPlanner:
             track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
             max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
         )
+        if closed and self._origin_xy is not None \
+                and _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
+            self.rejects["loop_misses_start"] += 1
+            logger.debug("a loop in the cones that misses the start: still exploring")
+            closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
@@ -221,6 +230,7 @@ class PathPlanner:
             kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
+        extra = np.minimum(extra, self._steering_angle_limit(kappa))
         if c.speed_mode == "two_level":
             extra = np.minimum(extra, two_level_speed_mps(
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
@@ -231,6 +241,12 @@ class PathPlanner:
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
+
+    def _steering_angle_limit(self, kappa_1pm: FloatArray) -> FloatArray:
+        c = self.config
+        return steering_angle_speed_limit_mps(
+            kappa_1pm, self.car.wheelbase_m, c.steer_angle_fraction * self.car.max_steer_rad,
+            c.understeer_rad_per_mps2, crawl_mps=c.min_plan_speed_mps)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:
         """The baseframe speed profile (m/s) at arc lengths ``s_m``."""
@@ -380,6 +396,7 @@ class PathPlanner:
         ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
         v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
                                                                       self.limits))
+        v_lim = np.minimum(v_lim, self._steering_angle_limit(cand.curvature_1pm))
         v_lim = np.minimum(v_lim, cand.speed_cap_mps)
         # a stop: brake (within the limits) to stand at the end of the candidate
         v_end = 0.0 if stop else float(v_lim[-1])
@@ -406,3 +423,14 @@ class PathPlanner:
             waypoints_xy_m=np.zeros((0, 2)) if waypoints is None else waypoints,
             lap=self.lap,
         )
+
+
+def _distance_to_loop_m(points_xy_m: FloatArray, xy_m: tuple[float, float]) -> float:
+    """Distance (m) from ``xy_m`` to the closed polyline through ``points_xy_m`` (K, 2)."""
+    a = np.asarray(points_xy_m, np.float64)
+    b = np.roll(a, -1, axis=0)
+    ab = b - a
+    p = np.asarray(xy_m, np.float64)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                              1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))

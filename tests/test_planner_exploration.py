@@ -75,6 +75,31 @@ def test_a_missing_cone_and_an_extra_cone_beside_the_track_change_little() -> No
     assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.5)
 
 
+def test_a_cone_mapped_twice_counts_once() -> None:
+    """Before the loop closes the SLAM maps a cone seen long ago a second time, a few cm from
+    the first. Through a corner with one side seen, a cone's twin is no neighbour that gives
+    the boundary's direction: the path stays on the centreline (it ran 2.3 m off it)."""
+    _, right, centre = _bend()
+    rng = np.random.default_rng(4)
+    twins = right + rng.normal(0.0, 0.02, right.shape)
+    path = exploration_path(np.r_[right, twins], np.full(2 * len(right), YELLOW), (0.0, 0.0),
+                            0.0, track_width_m=3.5)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.3)
+
+
+def test_a_wide_gate_is_still_a_gate() -> None:
+    """The track widens to 5.5 m (a bend's entry): the right cones lie 4 m to the side, beyond
+    a nominal width (3.5 m); they are still paired with the left ones and the path runs in the
+    middle (y = -1.25 m) instead of half a nominal width inside the left side (y = -0.25 m)."""
+    x = np.array([3.0, 6.0, 9.0, 12.0])
+    cones = np.r_[np.c_[x, np.full(4, 1.5)], np.c_[x, np.full(4, -4.0)]]
+    colours = np.r_[np.full(4, BLUE), np.full(4, YELLOW)]
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0, track_width_m=3.5)
+    assert len(path) == 5
+    assert np.allclose(path[1:, 1], -1.25, atol=1e-9)
+
+
 def test_no_cone_ahead_gives_only_the_start() -> None:
     left, right, _ = _bend()
     cones = np.r_[left, right] - np.array([60.0, 0.0])  # all behind the car
@@ -103,3 +128,22 @@ def test_autocross_on_small_track_is_driven_by_the_stack_alone(tmp_path) -> None
     assert summary["cones_hit"] == 0
     assert summary["off_track"] == 0
     assert summary["cone_hits"] == []
+
+
+@pytest.mark.shared_data("tracks/eufs/peanut.csv")
+def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
+    """The peanut's waist: the car sees the cones of the start again across it before its lap
+    is done (the SLAM maps them twice until the loop closes), and the right lobe with the
+    waist's cones looks like a loop of its own that misses the start. Both once stopped the
+    car or put it into the cones."""
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+    from support.shared_data import shared_path
+
+    track = str(shared_path("tracks", "eufs", "peanut.csv"))
+    summary = run_sim(AppConfig(), SimOptions(track=track, seed=3, mission="autocross",
+                                              render=False, record=False, out_dir=tmp_path))
+    assert summary["finished"], summary["stop_reason"]
+    assert summary["laps_completed"] == 1
+    assert summary["cones_hit"] == 0
+    assert summary["off_track"] == 0
