@@ -28,6 +28,11 @@ UNKNOWN = int(ConeColour.UNKNOWN)
 SAME_CONE_M = 0.25
 """Two landmarks nearer than this (m) are one cone: cones stand further apart."""
 
+OWN_COLOUR_REACH_M = 3.0
+"""A cone of the side's own colour is taken over a nearer one of unknown colour (a stray
+cone) when it is at most this much (m) further; further on it is the boundary's next cone and
+the nearer one the boundary's, its colour not yet voted (the first cones seen at the start)."""
+
 MIN_STEP_M = 1.5
 """A gate nearer than this ahead of the last point (m) is passed, not stepped to."""
 
@@ -74,10 +79,10 @@ def exploration_path(
         if left is not None and right is not None:
             target = 0.5 * (xy[left] + xy[right])
         elif left is not None:
-            target = xy[left] - half * _inward(xy, col, left, to_left)
+            target = xy[left] - half * _inward(xy, col, left, point, to_left)
         else:
             assert right is not None
-            target = xy[right] + half * _inward(xy, col, right, to_left)
+            target = xy[right] + half * _inward(xy, col, right, point, to_left)
         for i in (left, right):
             if i is not None:
                 unused[i] = False
@@ -157,20 +162,32 @@ def _next_gate(
 
 def _nearest(candidates: NDArray[np.bool_], own_colour: NDArray[np.bool_],
              distance: FloatArray) -> int | None:
-    """Index of the nearest candidate, one of the side's own colour before one of unknown
-    colour (a stray cone); None when there is no candidate."""
-    if (candidates & own_colour).any():
-        candidates = candidates & own_colour
+    """Index of the nearest candidate, one of the side's own colour before a nearer one of
+    unknown colour (a stray cone); None when there is no candidate."""
     if not candidates.any():
         return None
-    return int(np.argmin(np.where(candidates, distance, np.inf)))
+    nearest = int(np.argmin(np.where(candidates, distance, np.inf)))
+    own = candidates & own_colour
+    if own.any():
+        nearest_own = int(np.argmin(np.where(own, distance, np.inf)))
+        # ... unless the side's own colour is only further on (its next cone, past the
+        # nearest one whose colour is not known yet)
+        if distance[nearest_own] <= distance[nearest] + OWN_COLOUR_REACH_M:
+            return nearest_own
+    return nearest
 
 
-def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, to_left: FloatArray) -> FloatArray:
+def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, point: FloatArray,
+            to_left: FloatArray) -> FloatArray:
     """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel
     (``to_left``: the car's left): from the line to its nearest neighbour of the same colour,
     or the car's own left when it has none within 8 m."""
-    same = np.flatnonzero(col == col[i])
+    same = col == col[i]
+    if col[i] not in (BLUE, YELLOW):
+        # a cone of unknown colour: its neighbours on the same side of the path, not across
+        side = (xy - point) @ to_left
+        same &= np.sign(side) == np.sign(side[i])
+    same = np.flatnonzero(same)
     same = same[same != i]
     if len(same):
         d = np.hypot(*(xy[same] - xy[i]).T)

@@ -70,6 +70,9 @@ class PathPlanner:
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
+        self._explored_m = 0.0
+        """Distance (m) driven while exploring, from the poses the planner saw."""
+        self._last_xy: tuple[float, float] | None = None
         """Arc length (m) from the start to the start line while exploring autonomously."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
@@ -286,6 +289,9 @@ class PathPlanner:
         self._line_offset_m = (s_line - s_origin) % length
         self._s_start = s_origin
         self._progress_m = (s_car_m - s_origin) % length
+        # the loop may close only after the car has passed the start again: whole laps from
+        # the distance driven while exploring
+        self._progress_m += length * max(round((self._explored_m - self._progress_m) / length), 0)
         logger.info("laps count from the start line %.1f m past the start; %.1f m driven",
                     self._line_offset_m, self._progress_m)
 
@@ -318,6 +324,11 @@ class PathPlanner:
             self.rejects["non_finite_pose"] += 1
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
+        if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
+            if self._last_xy is not None:
+                self._explored_m += math.hypot(pose.x_m - self._last_xy[0],
+                                               pose.y_m - self._last_xy[1])
+            self._last_xy = (pose.x_m, pose.y_m)
         if self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
             self._frame_from_cones(map_state)
             if self.frame is not None and self.frame.closed:

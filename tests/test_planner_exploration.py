@@ -100,6 +100,21 @@ def test_a_wide_gate_is_still_a_gate() -> None:
     assert np.allclose(path[1:, 1], -1.25, atol=1e-9)
 
 
+def test_first_cones_of_unknown_colour_make_the_first_gate() -> None:
+    """At the start the nearest cones' colours are not voted yet while the next blue cone
+    already is (QR_Nov_2022's start): the first gate is the unknown pair beside the start,
+    not the far blue cone with one unknown cone diagonally (whose 'boundary' then ran across
+    the track and sent the car into the right side)."""
+    cones = np.array([[1.8, 1.4], [2.1, -2.5], [4.2, 1.8], [4.9, -1.5], [5.8, 2.4],
+                      [6.7, -1.0], [8.4, 3.2], [9.2, -0.2]])
+    colours = np.array([UNKNOWN, UNKNOWN, BIG, BIG, BIG, BIG, BLUE, YELLOW])
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0)
+    assert len(path) >= 3
+    assert np.allclose(path[1], [1.95, -0.55], atol=1e-9)
+    # every point between the two sides' cones
+    assert np.all((path[1:, 1] > -2.0) & (path[1:, 1] < 2.5))
+
+
 def test_no_cone_ahead_gives_only_the_start() -> None:
     left, right, _ = _bend()
     cones = np.r_[left, right] - np.array([60.0, 0.0])  # all behind the car
@@ -147,3 +162,46 @@ def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
     assert summary["laps_completed"] == 1
     assert summary["cones_hit"] == 0
     assert summary["off_track"] == 0
+
+
+def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> None:
+    """The cones may make a closed loop only after the car has passed its start again (the
+    far side of the lap was mapped late): the lap the car has driven counts, so a one-lap
+    autocross ends at this crossing, not a lap later (QR_Nov_2022 drove two)."""
+    from planner_closed_loop_helpers import cone_map
+
+    from common.messages import MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    planner = PathPlanner(config.planner, config.car)
+    radius_m, half_m = 20.0, 1.75
+    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]  # from 0,0 heading +x
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
+    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
+
+    def state(t_s: float, angle: float, seen: np.ndarray) -> MapState:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        pose = PoseEstimate(t_s, x, y, angle, 8.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        return MapState(t_s, pose, cone_map(cones[seen], colours[seen]), loop_closed=False)
+
+    def near(angle: float) -> np.ndarray:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        return np.hypot(cones[:, 0] - x, cones[:, 1] - y) < 12.0
+
+    planner.start_autonomous(state(0.0, 0.0, near(0.0)))
+    assert planner.exploring
+    # one lap and a fifth, seeing only the cones within 12 m: no loop is mapped
+    angles = np.linspace(0.0, 2.4 * math.pi, 200)
+    for k, angle in enumerate(angles[1:], 1):
+        planner.plan(state(0.1 * k, float(angle), near(float(angle))), 0.1 * k)
+        assert planner.exploring
+    assert planner.lap == 0
+    # now the whole lap is mapped: the loop closes a fifth of a lap past the start
+    everything = np.ones(len(cones), bool)
+    planner.plan(state(20.1, float(angles[-1]), everything), 20.1)
+    assert not planner.exploring
+    assert planner.lap == 1
