@@ -179,9 +179,10 @@ def _nearest(candidates: NDArray[np.bool_], own_colour: NDArray[np.bool_],
 
 def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, point: FloatArray,
             to_left: FloatArray) -> FloatArray:
-    """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel
-    (``to_left``: the car's left): from the line to its nearest neighbour of the same colour,
-    or the car's own left when it has none within 8 m."""
+    """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel:
+    from the line to its nearest neighbour of the same colour (of the same side for a cone of
+    unknown colour), run away from ``point``; ``to_left`` (the car's left) when it has none
+    within 8 m."""
     same = col == col[i]
     if col[i] not in (BLUE, YELLOW):
         # a cone of unknown colour: its neighbours on the same side of the path, not across
@@ -193,7 +194,16 @@ def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, point: FloatArray,
         d = np.hypot(*(xy[same] - xy[i]).T)
         j = int(same[np.argmin(d)])
         if float(np.min(d)) < 8.0:
-            tangent = xy[j] - xy[i]
-            normal = np.array([-tangent[1], tangent[0]]) / max(float(np.hypot(*tangent)), 1e-9)
-            return normal if float(normal @ to_left) >= 0.0 else -normal
+            tangent = (xy[j] - xy[i]) / max(float(np.hypot(*(xy[j] - xy[i]))), 1e-9)
+            forward = np.array([to_left[1], -to_left[0]])
+            along = float(tangent @ forward)
+            if abs(along) > 0.3:
+                tangent = tangent if along > 0.0 else -tangent
+            elif np.hypot(*(xy[i] - point)) < np.hypot(*(xy[j] - point)):
+                # the boundary runs across the heading (deep in a bend): it runs on from the
+                # nearer of the two cones to the further
+                pass
+            else:
+                tangent = -tangent
+            return np.array([-tangent[1], tangent[0]])
     return to_left

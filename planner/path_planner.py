@@ -70,6 +70,8 @@ class PathPlanner:
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
+        self._origin_yaw_rad = 0.0
+        self._start_crossings = 0
         self._explored_m = 0.0
         """Distance (m) driven while exploring, from the poses the planner saw."""
         self._last_xy: tuple[float, float] | None = None
@@ -108,6 +110,7 @@ class PathPlanner:
             pose = map_state.pose
             if math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
                 self._origin_xy = (pose.x_m, pose.y_m)
+                self._origin_yaw_rad = pose.yaw_rad
                 logger.info("no exploration drive: exploring from the cones as they are mapped")
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)
@@ -274,6 +277,36 @@ class PathPlanner:
             if self._origin_xy is not None and self.frame.closed:
                 self._count_from_origin(map_state, s)
 
+    def _explore_progress(self, x_m: float, y_m: float, map_state: MapState) -> None:
+        """Distance driven while exploring, and laps counted where the car crosses its start
+        line again (across the start heading, within a track width of the start: the big orange
+        cones' line when they are mapped, else the start) while no loop is mapped: with no cone
+        colours the big orange cones and the loop's closure may never come, and the lap is
+        still done."""
+        assert self._origin_xy is not None
+        ox, oy = self._origin_xy
+        c, s = math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)
+        cones = map_state.cones
+        line_m = 0.0
+        if len(cones):
+            big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)]
+            big = big[np.hypot(big[:, 0] - ox, big[:, 1] - oy) < self.config.start_line_search_m]
+            if len(big):
+                line_m = float(np.mean((big[:, 0] - ox) * c + (big[:, 1] - oy) * s))
+        along = (x_m - ox) * c + (y_m - oy) * s - line_m
+        lateral = -(x_m - ox) * s + (y_m - oy) * c
+        if self._last_xy is not None:
+            last_along = (self._last_xy[0] - ox) * c + (self._last_xy[1] - oy) * s - line_m
+            self._explored_m += math.hypot(x_m - self._last_xy[0], y_m - self._last_xy[1])
+            laps_driven = self._explored_m / self.config.min_loop_length_m
+            if last_along < 0.0 <= along and abs(lateral) < self.config.nominal_track_width_m \
+                    and laps_driven > self._start_crossings + 1:
+                self._start_crossings += 1
+                self.lap = max(self.lap, self._start_crossings)
+                logger.info("exploring: start line crossed after %.0f m: lap %d",
+                            self._explored_m, self.lap)
+        self._last_xy = (x_m, y_m)
+
     def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
         """Laps of an explored track count from the start line (the big orange cones nearest
         the start, else the start itself), the explored lap included."""
@@ -325,10 +358,7 @@ class PathPlanner:
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
         if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
-            if self._last_xy is not None:
-                self._explored_m += math.hypot(pose.x_m - self._last_xy[0],
-                                               pose.y_m - self._last_xy[1])
-            self._last_xy = (pose.x_m, pose.y_m)
+            self._explore_progress(pose.x_m, pose.y_m, map_state)
         if self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
             self._frame_from_cones(map_state)
             if self.frame is not None and self.frame.closed:

@@ -165,9 +165,10 @@ def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
 
 
 def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> None:
-    """The cones may make a closed loop only after the car has passed its start again (the
-    far side of the lap was mapped late): the lap the car has driven counts, so a one-lap
-    autocross ends at this crossing, not a lap later (QR_Nov_2022 drove two)."""
+    """While no loop is mapped (the far side mapped late, or no colours: no big orange cones)
+    the lap ends where the car crosses its start line again; when the loop then closes, the
+    lap driven still counts, once, and the next crossing is lap 2 (a one-lap autocross on
+    QR_Nov_2022 drove two, and with the camera dead small_track was never finished)."""
     from planner_closed_loop_helpers import cone_map
 
     from common.messages import MapState, PoseEstimate
@@ -196,12 +197,19 @@ def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> No
     assert planner.exploring
     # one lap and a fifth, seeing only the cones within 12 m: no loop is mapped
     angles = np.linspace(0.0, 2.4 * math.pi, 200)
+    laps = []
     for k, angle in enumerate(angles[1:], 1):
         planner.plan(state(0.1 * k, float(angle), near(float(angle))), 0.1 * k)
         assert planner.exploring
-    assert planner.lap == 0
+        laps.append(planner.lap)
+    crossed = int(np.argmax(np.asarray(laps) == 1)) + 1
+    assert laps[-1] == 1 and abs(angles[crossed] - 2.0 * math.pi) < 0.1
     # now the whole lap is mapped: the loop closes a fifth of a lap past the start
     everything = np.ones(len(cones), bool)
     planner.plan(state(20.1, float(angles[-1]), everything), 20.1)
     assert not planner.exploring
     assert planner.lap == 1
+    # on to the next crossing: lap 2
+    for k, angle in enumerate(np.linspace(2.4 * math.pi, 4.2 * math.pi, 160), 202):
+        planner.plan(state(0.1 * k, float(angle), everything), 0.1 * k)
+    assert planner.lap == 2
