@@ -32,11 +32,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      help="autonomous laps, >= 1 (default: config mission.laps)")
     sim.add_argument("--seed", type=non_negative_int,
                      help="random seed of the simulated world (>= 0)")
-    sim.add_argument("--mission", choices=("trackdrive", "autocross"),
-                     help="trackdrive (laps; default) or autocross (one unseen lap)")
-    sim.add_argument("--exploration", choices=("autonomous", "manual"),
-                     help="who drives trackdrive's first lap (default: config "
-                          "mission.exploration)")
+    _add_mission_options(sim)
     sim.add_argument("--mapper", choices=("slam", "smoother"), help="mapping backend")
     sim.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     render = sim.add_mutually_exclusive_group()
@@ -80,6 +76,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     )
     drive.add_argument("--laps", type=positive_int,
                        help="autonomous laps, >= 1 (default: config mission.laps)")
+    _add_mission_options(drive)
     drive.add_argument("--out", type=Path, help="run folder (default: runs/<date-time>/)")
     drive.add_argument("--no-record", dest="record", action="store_false", default=True)
     drive.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
@@ -101,6 +98,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     )
     emulate.add_argument("--track", default="default", help="track name or file")
     emulate.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
+    _add_mission_options(emulate)
     emulate.add_argument("--write-config", type=Path, metavar="F",
                          help="write a car config for `drive` pointing at the emulated ports")
     emulate.add_argument("--summary", type=Path, metavar="F", help="write the summary JSON here")
@@ -156,6 +154,14 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     return 0
 
 
+def _add_mission_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--mission", choices=("trackdrive", "autocross"),
+                        help="trackdrive (laps; default) or autocross (one unseen lap)")
+    parser.add_argument("--exploration", choices=("autonomous", "manual"),
+                        help="who drives trackdrive's first lap (default: config "
+                             "mission.exploration)")
+
+
 def _drive(args: argparse.Namespace, config: AppConfig) -> int:
     import json
 
@@ -163,6 +169,7 @@ def _drive(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.sim import default_out_dir
 
     options = DriveOptions(out_dir=args.out or default_out_dir(), laps=args.laps,
+                           mission=args.mission, exploration=args.exploration,
                            record=args.record, seconds=args.seconds, render=args.render)
     if args.rt_priority is not None:
         options.realtime_priority = args.rt_priority
@@ -187,14 +194,18 @@ def _record(args: argparse.Namespace, config: AppConfig) -> int:
 def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
     import json
 
+    from orchestrator.config import apply_mission
     from simulator.emulator import EmulatorOptions, HardwareEmulator
 
+    apply_mission(config.mission, None, args.mission, args.exploration)
     options = EmulatorOptions(track=args.track,
                               exploration_overrun_m=config.run.exploration_overrun_m,
                               handover_standstill_s=config.run.handover_standstill_s,
                               seconds=args.seconds,
                               write_config=args.write_config, summary=args.summary,
-                              workdir=args.workdir, seed=args.seed)
+                              workdir=args.workdir, seed=args.seed,
+                              mission=config.mission.mission,
+                              exploration=config.mission.exploration)
     emulator = HardwareEmulator(config, options)
     print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
           f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "

@@ -67,6 +67,21 @@ class MissionConfig:
     dual antenna, a magnetometer, a surveyed start); None: the Mapper estimates it from GNSS."""
 
 
+def apply_mission(mission: MissionConfig, laps: int | None = None, name: str | None = None,
+                  exploration: str | None = None) -> None:
+    """The command line's ``--laps``, ``--mission`` and ``--exploration`` over the config's
+    mission (None: keep the config's). An autocross is one lap, explored by the stack."""
+    if laps is not None:
+        mission.laps = laps
+    if name is not None:
+        mission.mission = name
+    if exploration is not None:
+        mission.exploration = exploration
+    if mission.mission == "autocross":
+        mission.exploration = "autonomous"
+        mission.laps = 1
+
+
 @dataclass(slots=True)
 class AppConfig:
     """Everything configurable, one section per manager, plus the car, the run and the mission."""

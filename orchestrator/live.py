@@ -55,7 +55,7 @@ from common.messages import (
     RemoteStop,
     SourceHealth,
 )
-from orchestrator.config import AppConfig
+from orchestrator.config import AppConfig, apply_mission
 from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import control_sensors, worker_main
 from orchestrator.main_loop import StageTimes
@@ -81,6 +81,9 @@ class DriveOptions:
 
     out_dir: Path
     laps: int | None = None
+    mission: str | None = None
+    """trackdrive or autocross; None: the config's (as ``exploration``)."""
+    exploration: str | None = None
     record: bool = True
     control: bool = True
     seconds: float | None = None
@@ -161,8 +164,7 @@ class LiveMain:
     def __init__(self, config: AppConfig, options: DriveOptions) -> None:
         self.config = config
         self.options = options
-        if options.laps is not None:
-            config.mission.laps = options.laps
+        apply_mission(config.mission, options.laps, options.mission, options.exploration)
         self.clock = RealClock()
         self.sensors = make_sensors(config, self.clock, control_sensors(config))
         self.controller = make_controller(config)

@@ -27,7 +27,7 @@ from common.clock import RealClock, SimClock
 from common.config import config_to_toml
 from common.messages import ActuatorCommand, AsState
 from mapper.evaluation import evaluate_map
-from orchestrator.config import AppConfig
+from orchestrator.config import AppConfig, apply_mission
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
 from orchestrator.outputs import HashSink
@@ -85,15 +85,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     """Run one closed-loop simulation; write the run folder; return the summary."""
     if options.track is not None:
         config.sim.track = options.track
-    if options.laps is not None:
-        config.mission.laps = options.laps
-    if options.mission is not None:
-        config.mission.mission = options.mission
-    if options.exploration is not None:
-        config.mission.exploration = options.exploration
-    if config.mission.mission == "autocross":
-        config.mission.exploration = "autonomous"
-        config.mission.laps = 1
+    apply_mission(config.mission, options.laps, options.mission, options.exploration)
     if options.seed is not None:
         config.sim.seed = options.seed
     if options.mapper is not None:

@@ -60,6 +60,10 @@ class EmulatorOptions:
     wait_for_stack_s: float = 60.0
     """The car stands, its clock stopped, until the stack opens the CAN adapter (slcan ``O``),
     at most this long (0: start at once): the person drives only once the stack is running."""
+    mission: str = "trackdrive"
+    """The mission the emulated car selects (written into the config for ``drive``)."""
+    exploration: str = "manual"
+    """``manual``: the scripted person drives the first lap; ``autonomous``: nobody does."""
     lead_in_s: float = 1.0
     """Then it stands this long with its sensors streaming before the exploration lap starts."""
 
@@ -80,7 +84,8 @@ class HardwareEmulator:
                                      steer_noise_rad=config.sim.driver_steer_noise_rad)
         self.person = Handover(self.track, self.driver, self.world,
                                overrun_m=options.exploration_overrun_m,
-                               standstill_s=options.handover_standstill_s)
+                               standstill_s=options.handover_standstill_s,
+                               autonomous_exploration=options.exploration == "autonomous")
         self.codec = CanCodec(config.sensors.can.dbc or None)
         workdir = options.workdir or Path(tempfile.mkdtemp(prefix="fsd-emulator-"))
         workdir.mkdir(parents=True, exist_ok=True)
@@ -116,6 +121,9 @@ class HardwareEmulator:
                 "lidar": {"host": "127.0.0.1", "port": self.lidar_port},
                 "camera": {"host": "127.0.0.1", "port": self.camera_port},
             },
+            # the car's mission as the emulated car selects it (on the car: MISSION_SELECT)
+            "mission": {"mission": self.options.mission,
+                        "exploration": self.options.exploration},
             "sim": {"origin_lat_deg": sim.origin_lat_deg, "origin_lon_deg": sim.origin_lon_deg,
                     "origin_alt_m": sim.origin_alt_m,
                     "start_heading_enu_rad": sim.start_heading_enu_rad},
@@ -208,14 +216,18 @@ class HardwareEmulator:
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
-            for port in (self.gps, self.imu, self.can):
-                port.close()
-            self.lidar.close()
-            self.camera.close()
+            self.close()
         summary = self.summary(stop_reason, clock.now_s())
         if options.summary is not None:
             options.summary.write_text(json.dumps(summary, indent=2) + "\n")
         return summary
+
+    def close(self) -> None:
+        """Close the ports and sockets (the run does at its end)."""
+        for port in (self.gps, self.imu, self.can):
+            port.close()
+        self.lidar.close()
+        self.camera.close()
 
     def _track_watchdog(self, t_s: float, truth: Any) -> None:
         """Record the first time the watchdog brakes a car the stack was driving, and its stop."""
