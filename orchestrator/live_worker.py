@@ -117,6 +117,9 @@ class Worker:
             from visualiser.visualiser import Visualiser
 
             self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+        from orchestrator.outputs import start_live
+
+        self.live: Any = start_live(options.live, config)
         self.times = StageTimes()
         self.stop = threading.Event()
         self.errors: list[str] = []
@@ -136,6 +139,8 @@ class Worker:
             self.hasher.write(topic, message, now_s)
             if self.recorder is not None:
                 self.recorder.write(topic, message, now_s)
+        if self.live is not None:
+            self.live.write(topic, message, now_s)
 
     def _fail(self, layer: str, exc: BaseException) -> None:
         log.exception("%s layer failed", layer)
@@ -177,6 +182,10 @@ class Worker:
                     for reading in readings:
                         if isinstance(reading, GpsFix):
                             self.recorder.write_gps_fix(reading)
+                if self.live is not None:
+                    for reading in readings:
+                        if isinstance(reading, GpsFix):
+                            self.live.write_gps_fix(reading)
                 if self.mapper is None or self.planner is None:
                     continue
                 t0 = time.perf_counter()
@@ -256,6 +265,8 @@ class Worker:
                 self._emit(COMMAND, command, now_s)
             if health is not None and self.recorder is not None:
                 self.recorder.write(HEALTH, health, now_s)
+            if health is not None and self.live is not None:
+                self.live.write(HEALTH, health, now_s)
         elif kind == "stop":
             self.stop.set()
         else:
@@ -322,6 +333,7 @@ class Worker:
                     thread.join(2.0)
             for name, close in (("sensors", self.sensors.stop),
                                 ("recorder", getattr(self.recorder, "close", None)),
+                                ("live view", getattr(self.live, "close", None)),
                                 ("visualiser", getattr(self.visualiser, "close", None))):
                 if close is None:
                     continue
@@ -338,6 +350,8 @@ class Worker:
             stats["gc_ms"] = self.gc_times.summary_ms()
         if self.recorder is not None:
             stats["recording_dropped"] = int(getattr(self.recorder, "dropped", 0))
+        if self.live is not None:
+            stats["live"] = self.live.stats()
         if self.visualiser is not None:
             stats["frames"] = {"submitted": self.visualiser.submitted,
                                "dropped": self.visualiser.dropped}

@@ -30,7 +30,7 @@ from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
-from orchestrator.outputs import HashSink
+from orchestrator.outputs import HashSink, start_live
 from orchestrator.run_log import RunLog
 from recordings.recorder import Recorder
 from recordings.topics import TRUTH_POSE, TRUTH_TRACK
@@ -66,6 +66,8 @@ class SimOptions:
     realtime: bool = False
     faults: list[str] = field(default_factory=list)
     progress: bool = False
+    live: tuple[str, int] | None = None
+    """(host, port) of the Foxglove live view (``--live``); None: no live view."""
     end_at_handover: bool = False
     """End the run when the exploration lap is over (at the RES go): stop reason 'handover'."""
 
@@ -131,6 +133,9 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         from visualiser.visualiser import Visualiser
 
         visualiser = Visualiser(config.visualiser, out_dir / "frames")
+    live = start_live(options.live, config)
+    if live is not None:
+        live.write(TRUTH_TRACK, track, 0.0)
     main = Main(
         config,
         sensors=sensors,
@@ -140,6 +145,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         outputs=outputs,
         recorder=recorder,
         visualiser=visualiser,
+        live=live,
     )
     main.track = track
 
@@ -147,6 +153,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     try:
         result = runner.run()
     finally:
+        if live is not None:
+            live.close()
         sensors.stop()
         if recorder is not None:
             recorder.close()
@@ -158,6 +166,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
     if visualiser is not None:
         summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
+    if live is not None:
+        summary["live"] = live.stats()
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
     _plots(out_dir, runner, track)
@@ -216,8 +226,11 @@ class _SimRunner:
             truth = self.world.truth()
             self.main.truth = truth
             command = self.main.tick(t_s, raw)
-            if self.recorder is not None and k % 10 == 0:
-                self.recorder.write(TRUTH_POSE, truth, t_s)
+            if k % 10 == 0:
+                if self.recorder is not None:
+                    self.recorder.write(TRUTH_POSE, truth, t_s)
+                if self.main.live is not None:
+                    self.main.live.write(TRUTH_POSE, truth, t_s)
             self._observe(t_s, truth, command)
             laps_done = self.person.lap_times_s()
             progress.update(t_s, len(laps_done), self.person.phase,

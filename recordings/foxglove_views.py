@@ -1,4 +1,5 @@
-"""Foxglove views of the stack's messages: ``foxglove.SceneUpdate`` and ``foxglove.LocationFix``.
+"""Foxglove views of the stack's messages: ``foxglove.SceneUpdate``, ``foxglove.FrameTransform``
+and ``foxglove.LocationFix``.
 
 The recorder writes these next to the stack's own topics so that a recording opens in Foxglove's
 3D and Map panels with no setup. Everything is drawn in the ``world`` frame (the car's start
@@ -15,11 +16,12 @@ import numpy as np
 from google.protobuf.duration_pb2 import Duration
 from google.protobuf.timestamp_pb2 import Timestamp
 
-from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan
+from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan, PoseEstimate
 from common.track import TrackLayout
-from recordings.foxglove import scene_pb2 as fg
+from recordings.foxglove import schemas as fg
 
 WORLD_FRAME = "world"
+CAR_FRAME = "base_link"
 GPS_FRAME = "gps"
 
 #: RGBA of each cone colour class.
@@ -187,6 +189,18 @@ def track_scene(track: TrackLayout, t_s: float) -> fg.SceneUpdate:
         metadata=[fg.KeyValuePair(key="name", value=str(track.name))],
     )
     return fg.SceneUpdate(entities=[entity])
+
+
+def frame_transform(pose: PoseEstimate) -> fg.FrameTransform:
+    """The estimated car (``base_link``, rear axle) in ``world``: a 3D panel can follow it."""
+    half_yaw = 0.5 * pose.yaw_rad
+    return fg.FrameTransform(
+        timestamp=timestamp(pose.timestamp_s),
+        parent_frame_id=WORLD_FRAME,
+        child_frame_id=CAR_FRAME,
+        translation=fg.Vector3(x=pose.x_m, y=pose.y_m, z=0.0),
+        rotation=fg.Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)),
+    )
 
 
 #: Assumed user-equivalent range error (m) turning HDOP into a horizontal sigma.

@@ -307,6 +307,8 @@ class Recorder:
                     message, car.length_m, car.width_m, car.rear_overhang_m
                 )
                 self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
+            self._write_proto(topics.FOXGLOVE_TF, foxglove_views.frame_transform(message.pose),
+                              log_ns)
         elif isinstance(message, Plan):
             self._write_proto(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), log_ns)
         elif isinstance(message, TrackLayout):

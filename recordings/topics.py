@@ -38,6 +38,7 @@ TRUTH_TRACK = "/truth/track"
 # Foxglove views (derived; not replayed)
 FOXGLOVE_SCENE = "/foxglove/scene"
 FOXGLOVE_GPS = "/foxglove/gps"
+FOXGLOVE_TF = "/foxglove/tf"
 
 #: Topic of each raw source (``RawBytes.source``); CAN frames go to :data:`CAN_FRAME`.
 RAW_TOPIC_BY_SOURCE: dict[str, str] = {
@@ -50,7 +51,7 @@ RAW_TOPIC_BY_SOURCE: dict[str, str] = {
 RAW_TOPICS: tuple[str, ...] = (GPS_NMEA, IMU_PACKET, CAN_FRAME, LIDAR_PACKET, CAMERA_PACKET)
 OUTPUT_TOPICS: tuple[str, ...] = (MAP_STATE, PLAN, COMMAND, HEALTH)
 TRUTH_TOPICS: tuple[str, ...] = (TRUTH_POSE, TRUTH_TRACK)
-FOXGLOVE_TOPICS: tuple[str, ...] = (FOXGLOVE_SCENE, FOXGLOVE_GPS)
+FOXGLOVE_TOPICS: tuple[str, ...] = (FOXGLOVE_SCENE, FOXGLOVE_GPS, FOXGLOVE_TF)
 
 #: Message type on each known topic (Foxglove topics carry protobuf messages as they are).
 TOPIC_TYPES: dict[str, type] = {
@@ -71,6 +72,7 @@ TOPIC_TYPES: dict[str, type] = {
 FOXGLOVE_SCHEMAS: dict[str, str] = {
     FOXGLOVE_SCENE: "foxglove.SceneUpdate",
     FOXGLOVE_GPS: "foxglove.LocationFix",
+    FOXGLOVE_TF: "foxglove.FrameTransform",
 }
 
 
