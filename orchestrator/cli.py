@@ -154,7 +154,8 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
                                                out_dir=args.out, render=args.render,
                                                config_file=config_file,
                                                pipeline=not args.single_process,
-                                               live=args.live))
+                                               live=args.live,
+                                               progress=sys.stderr.isatty()))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

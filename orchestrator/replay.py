@@ -19,6 +19,7 @@ import time
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner
 from orchestrator.outputs import HashSink, start_live
+from orchestrator.progress import Progress, realtime_status
 from orchestrator.replay_front import (
     FrontEndTimes,
     TickInput,
@@ -62,6 +64,8 @@ class ReplayOptions:
     """Read and parse the recording in a process of its own, beside Main (same outputs)."""
     live: tuple[str, int] | None = None
     """(host, port) of the Foxglove live view (``--live``); None: no live view."""
+    progress: bool = False
+    """A progress bar (on a terminal); otherwise a plain progress line every few seconds."""
 
 
 class TickSensors:
@@ -143,6 +147,10 @@ def replay_config(config: AppConfig, path: Path, config_file: Path | None) -> Ap
     return merged
 
 
+def _status(t_s: float, progress: Progress) -> str:
+    return realtime_status(t_s, progress.wall_s)
+
+
 def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     """Replay a recording through Main; write ``summary.json`` when an out dir is given."""
     path = options.path
@@ -181,6 +189,7 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     est_pose: dict[float, tuple[float, float, float]] = {}
     track = None
     wall0 = time.perf_counter()
+    progress = Progress("replay", round(n_ticks * dt_s), "s of recording", options.progress)
     try:
         for tick in ticks:
             for log_time_s, message in tick.truth:
@@ -198,7 +207,9 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
             if main.map_state is not None and truth_t and abs(truth_t[-1] - tick.t_s) < 1e-6:
                 pose = main.map_state.pose
                 est_pose[truth_t[-1]] = (pose.x_m, pose.y_m, pose.yaw_rad)
+            progress.update(int(tick.t_s), partial(_status, tick.t_s, progress))
     finally:
+        progress.close()
         close = getattr(ticks, "close", None)
         if close is not None:
             close()

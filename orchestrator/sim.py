@@ -31,6 +31,7 @@ from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
 from orchestrator.outputs import HashSink, start_live
+from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
 from recordings.recorder import Recorder
 from recordings.topics import TRUTH_POSE, TRUTH_TRACK
@@ -42,9 +43,7 @@ from simulator.tracks import load_track
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
-progress_log = logging.getLogger("progress")
-
-PROGRESS_LINE_S = 5.0
+PROGRESS_LINE_S = LINE_PERIOD_S
 """Wall time (s) between two plain progress lines when stderr is not a terminal."""
 
 
@@ -292,38 +291,23 @@ class _SimRunner:
 
 
 class _Progress:
-    """Progress of a long run: a one-line bar on stderr (tqdm) when ``bar`` (a terminal), else
-    a plain log line every :data:`PROGRESS_LINE_S` of wall time (CI, logs): simulated time,
-    laps done of N, the last lap time and the real-time factor."""
+    """Progress of a sim run (:class:`orchestrator.progress.Progress`): laps done of N, the
+    simulated time, the real-time factor, the phase and the last lap time; a bar on a terminal
+    (``bar``), else a plain line every :data:`PROGRESS_LINE_S` of wall time."""
 
     def __init__(self, bar: bool, laps: int) -> None:
-        self.bar = None
-        if bar:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=laps, desc="sim", unit="lap", leave=False)
         self.total = laps
-        self._laps = 0
-        self._wall0 = time.perf_counter()
-        self._next_line_s = PROGRESS_LINE_S
+        self._progress = Progress("sim", laps, "laps", bar, PROGRESS_LINE_S)
 
     def update(self, t_s: float, laps: int, phase: str, last_lap_s: float | None = None) -> None:
-        if self.bar is not None:
-            if laps != self._laps:
-                self.bar.update(laps - self._laps)
-            if int(t_s * 10) % 10 == 0:
-                self.bar.set_postfix_str(f"t={t_s:.0f}s {phase}", refresh=False)
-        self._laps = laps
-        wall = time.perf_counter() - self._wall0
-        if self.bar is None and wall >= self._next_line_s:
-            self._next_line_s = wall + PROGRESS_LINE_S
+        def status() -> str:
             last = f", last lap {last_lap_s:.2f} s" if last_lap_s else ""
-            progress_log.info("sim: t=%.0f s, %s, laps %d of %d%s, %.1fx real time", t_s,
-                              phase, laps, self.total, last, t_s / max(wall, 1e-9))
+            return f"{realtime_status(t_s, self._progress.wall_s)}, {phase}{last}"
+
+        self._progress.update(laps, status)
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self._progress.close()
 
 
 def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runner: _SimRunner,
