@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 from common.clock import RealClock
 from common.messages import (
     ActuatorCommand,
+    AsState,
     CanFrame,
     GpsFix,
     MapState,
@@ -116,7 +117,8 @@ class Worker:
         if options.render and options.control:
             from visualiser.visualiser import Visualiser
 
-            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
+                                         laps=config.mission.laps)
         from orchestrator.outputs import start_live
 
         self.live: Any = start_live(options.live, config)
@@ -199,7 +201,12 @@ class Worker:
                     next_output_s = now_s + output_period_s
                     self._emit(MAP_STATE, map_state, now_s)
                     if self.visualiser is not None:
-                        self.visualiser.note_pose(map_state.pose.x_m, map_state.pose.y_m)
+                        pose = map_state.pose
+                        self.visualiser.note_pose(
+                            pose.x_m, pose.y_m, pose.speed_mps, now_s,
+                            self.plan.lap if self.plan is not None else 0,
+                            self.command is not None
+                            and self.command.state == AsState.DRIVING)
                 if self.visualiser is not None and now_s >= next_frame_s:
                     next_frame_s = now_s + frame_period_s
                     self.visualiser.submit(map_state, self.plan, self.command)

@@ -186,7 +186,11 @@ class Main:
             self._next_output_s = now_s + self._output_period_s
             self._emit(MAP_STATE, self.map_state, now_s)
             if self.visualiser is not None:
-                self.visualiser.note_pose(self.map_state.pose.x_m, self.map_state.pose.y_m)
+                pose = self.map_state.pose
+                self.visualiser.note_pose(
+                    pose.x_m, pose.y_m, pose.speed_mps, now_s,
+                    self.plan.lap if self.plan is not None else 0,
+                    self.command.state == AsState.DRIVING)
             if self.recorder is not None:
                 self.recorder.write(HEALTH, self.health, now_s)
             if self.live is not None:

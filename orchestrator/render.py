@@ -30,6 +30,11 @@ def render_recording(path: Path, out_dir: Path, config: VisualiserConfig,
     if not path.exists():
         raise FsdError(f"{path}: no such recording")
     writer = FrameWriter(config, out_dir)
+    from orchestrator.replay import recorded_config
+
+    recorded = recorded_config(path) or {}
+    laps = recorded.get("mission", {}).get("laps", 0)
+    writer.laps_target = laps if isinstance(laps, int) else 0
     next_t = -1.0
     with RecordingReader(path) as reader:
         end_ns = reader.last_log_time_ns(MAP_STATE)
@@ -42,6 +47,7 @@ def render_recording(path: Path, out_dir: Path, config: VisualiserConfig,
             writer.set_track(message)
         elif topic == MAP_STATE and isinstance(message, MapState):
             if fps is not None and t_s < next_t - 1e-6:  # float steps of the 10 Hz states
+                writer.note(message)  # its pose joins the trace
                 continue
             next_t = t_s + (1.0 / fps if fps else 0.0)
             writer.draw(t_s, message)

@@ -174,7 +174,8 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     if options.render and options.out_dir is not None:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+        visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
+                                laps=config.mission.laps)
     try:
         live = start_live(options.live, config)
     except BaseException:

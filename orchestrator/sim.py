@@ -131,7 +131,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if config.run.render:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config.visualiser, out_dir / "frames")
+        visualiser = Visualiser(config.visualiser, out_dir / "frames", laps=config.mission.laps)
     live = start_live(options.live, config)
     if live is not None:
         live.write(TRUTH_TRACK, track, 0.0)
