@@ -25,6 +25,7 @@ from typing import Any
 
 from common.clock import RealClock, SimClock
 from common.config import config_to_toml
+from common.conventions import wrap_angle
 from common.messages import ActuatorCommand, AsState
 from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig
@@ -33,8 +34,9 @@ from orchestrator.managers import make_controller, make_mapper, make_planner, ma
 from orchestrator.outputs import HashSink, start_live
 from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
+from recordings import fsd_pb2
 from recordings.recorder import Recorder
-from recordings.topics import TRUTH_POSE, TRUTH_TRACK
+from recordings.topics import EVAL_POSE_ERROR, TRUTH_POSE, TRUTH_TRACK
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
 from simulator.handover import Handover, Phase
@@ -226,10 +228,7 @@ class _SimRunner:
             self.main.truth = truth
             command = self.main.tick(t_s, raw)
             if k % 10 == 0:
-                if self.recorder is not None:
-                    self.recorder.write(TRUTH_POSE, truth, t_s)
-                if self.main.live is not None:
-                    self.main.live.write(TRUTH_POSE, truth, t_s)
+                self._write_truth(t_s, truth)
             self._observe(t_s, truth, command)
             laps_done = self.person.lap_times_s()
             progress.update(t_s, len(laps_done), self.person.phase,
@@ -240,6 +239,23 @@ class _SimRunner:
                 break
         progress.close()
         return _Result(finished, stop_reason, time.perf_counter() - wall0, self.clock.now_s())
+
+    def _write_truth(self, t_s: float, truth: Any) -> None:
+        """The true pose and the estimate's error against it, to the recording and live view."""
+        sinks = [s for s in (self.recorder, self.main.live) if s is not None]
+        if not sinks:
+            return
+        error = None
+        ms = self.main.map_state
+        if ms is not None:
+            dx, dy = ms.pose.x_m - truth.x_m, ms.pose.y_m - truth.y_m
+            error = fsd_pb2.PoseError(timestamp_s=t_s, position_m=math.hypot(dx, dy), x_m=dx,
+                                      y_m=dy, heading_rad=wrap_angle(ms.pose.yaw_rad
+                                                                     - truth.yaw_rad))
+        for sink in sinks:
+            sink.write(TRUTH_POSE, truth, t_s)
+            if error is not None:
+                sink.write_proto(EVAL_POSE_ERROR, error, t_s)
 
     def _observe(self, t_s: float, truth: Any, command: ActuatorCommand) -> None:
         main = self.main

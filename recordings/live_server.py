@@ -53,6 +53,7 @@ LIVE_TOPIC_CLASSES: dict[str, type[ProtoMessage]] = {
     topics.COMMAND: fsd_pb2.ActuatorCommand,
     topics.HEALTH: fsd_pb2.Health,
     topics.TRUTH_POSE: fsd_pb2.GroundTruth,
+    topics.EVAL_POSE_ERROR: fsd_pb2.PoseError,
 }
 
 
