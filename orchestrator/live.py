@@ -464,4 +464,7 @@ class LiveMain:
         if "live" in self.worker_stats:
             summary["live"] = self.worker_stats["live"]
         (self.options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        from orchestrator.report import write_report
+
+        write_report(self.options.out_dir, summary, title="drive")
         return summary

@@ -251,4 +251,7 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     if options.out_dir is not None:
         options.out_dir.mkdir(parents=True, exist_ok=True)
         (options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        from orchestrator.report import write_report
+
+        write_report(options.out_dir, summary, title="replay")
     return summary

@@ -172,6 +172,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
     _plots(out_dir, runner, track)
+    _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
 
@@ -398,6 +399,16 @@ def _movie(config: AppConfig, out_dir: Path) -> None:
         make_movie(frames, out_dir / name, config.visualiser.movie_fps)
     except Exception:  # a movie is a convenience: the run's results stand without it
         log.exception("could not make %s", name)
+
+
+def _report(out_dir: Path, summary: dict[str, Any]) -> None:
+    """``report.html`` (a convenience: the run's results stand without it)."""
+    from orchestrator.report import write_report
+
+    try:
+        write_report(out_dir, summary, title="sim")
+    except Exception:
+        log.exception("could not write report.html")
 
 
 def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:
