@@ -45,6 +45,7 @@ from simulator.tracks import load_track
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
+progress_log = logging.getLogger("progress")
 PROGRESS_LINE_S = LINE_PERIOD_S
 """Wall time (s) between two plain progress lines when stderr is not a terminal."""
 
@@ -158,11 +159,14 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
             live.close()
         sensors.stop()
         if recorder is not None:
+            progress_log.info("sim: closing the recording")
             recorder.close()
         if visualiser is not None:
+            progress_log.info("sim: drawing the last frames")
             visualiser.close()
 
     if visualiser is not None:
+        progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
         _movie(config, out_dir)
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
     if visualiser is not None:
@@ -171,6 +175,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         summary["live"] = live.stats()
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
+    progress_log.info("sim: writing the plots and report.html")
     _plots(out_dir, runner, track)
     _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
