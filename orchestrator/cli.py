@@ -175,6 +175,10 @@ def _drive(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.live import DriveOptions, LiveMain
     from orchestrator.sim import default_out_dir
 
+    if args.live is not None:
+        from recordings.live_server import check_address
+
+        check_address(*args.live)  # the server starts in the executive process: fail early
     options = DriveOptions(out_dir=args.out or default_out_dir(), laps=args.laps,
                            record=args.record, seconds=args.seconds, render=args.render,
                            live=args.live)

@@ -117,6 +117,9 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
                             speed_mps=config.sim.driver_speed_mps,
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
 
+    live = start_live(options.live, config)  # first: a port in use stops nothing half-made
+    if live is not None:
+        live.write(TRUTH_TRACK, track, 0.0)
     clock = SimClock()
     sensors = make_sensors(config, clock)
     hasher = HashSink()
@@ -135,9 +138,6 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         from visualiser.visualiser import Visualiser
 
         visualiser = Visualiser(config.visualiser, out_dir / "frames", laps=config.mission.laps)
-    live = start_live(options.live, config)
-    if live is not None:
-        live.write(TRUTH_TRACK, track, 0.0)
     main = Main(
         config,
         sensors=sensors,

@@ -61,6 +61,20 @@ class LiveError(FsdError):
     """The live server cannot start (bad address, port in use)."""
 
 
+def check_address(host: str, port: int) -> None:
+    """Raise :class:`LiveError` (one line) when ``host:port`` cannot be listened on now: for a
+    server started in another process (``drive``), whose own error would come late."""
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+        with socket.socket(infos[0][0], socket.SOCK_STREAM) as sock:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            sock.bind(infos[0][4])
+    except OSError as exc:
+        raise LiveError(f"cannot serve the live view on {host}:{port}: {exc}") from exc
+
+
 @dataclass(frozen=True, slots=True)
 class _Item:
     topic: str

@@ -16,7 +16,7 @@ import websockets
 from common.cli_types import host_port
 from common.messages import ConeMap, MapState, PoseEstimate
 from recordings import topics
-from recordings.live_server import LiveError, LiveServer
+from recordings.live_server import LiveError, LiveServer, check_address
 
 
 def _map_state(t_s: float, n_cones: int = 200) -> MapState:
@@ -45,6 +45,9 @@ def test_port_in_use_is_a_clear_error() -> None:
         port = sock.getsockname()[1]
         with pytest.raises(LiveError, match=f"127.0.0.1:{port}"):
             LiveServer("127.0.0.1", port)
+        with pytest.raises(LiveError, match=f"127.0.0.1:{port}"):
+            check_address("127.0.0.1", port)
+    check_address("127.0.0.1", 0)
 
 
 def test_no_client_costs_nothing() -> None:
