@@ -3,8 +3,9 @@
 ``sim``, ``replay`` and ``drive`` take ``--live [HOST:]PORT``; a :class:`LiveServer` then serves
 the same topics, in the same schemas, as ``recording.mcap`` (:mod:`recordings.topics`), so one
 Foxglove layout (``recordings/foxglove/layout.json``) serves both: the scene
-(``/foxglove/scene``, ``foxglove.SceneUpdate``: cones by colour, the car, the baseframe, the
-chosen manoeuvre, the true track in simulation), the pose (``/foxglove/tf``,
+(``/foxglove/scene``, ``foxglove.SceneUpdate``: cones by colour, the car and its uncertainty
+ellipse, the baseframe, the candidate manoeuvres and the chosen one, the driven trace, the true
+track in simulation), the pose (``/foxglove/tf``,
 ``foxglove.FrameTransform``: ``world`` -> ``base_link``), the GNSS fix, and the stack's own
 messages (``/map/state``, ``/plan``, ``/command`` with the AS state, ``/health``) in the
 ``fsd.*`` protobuf schemas. The WebSocket protocol is the ``foxglove-sdk`` package's.
@@ -165,6 +166,7 @@ class LiveServer:
         self._track: TrackLayout | None = None
         self._next_track_s = 0.0
         self._last_scene_s: float | None = None
+        self._trace = foxglove_views.TraceSegments()
         self._closed = False
         self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, queue_length))
         self._thread = threading.Thread(target=self._run, name="live-server", daemon=True)
@@ -280,6 +282,9 @@ class LiveServer:
             self._log(item.topic, to_proto(message), t_s)
         if isinstance(message, MapState):
             self._log(topics.FOXGLOVE_TF, foxglove_views.frame_transform(message.pose), t_s)
+            trace = self._trace.add(t_s, message.pose.x_m, message.pose.y_m)
+            if trace is not None:
+                self._log(topics.FOXGLOVE_SCENE, trace, t_s)
             if (self._last_scene_s is None
                     or abs(t_s - self._last_scene_s) >= self.scene_period_s - 1e-6):
                 self._last_scene_s = t_s
