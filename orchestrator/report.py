@@ -69,7 +69,10 @@ def write_report(out_dir: Path, summary: dict[str, Any], title: str = "Run") -> 
              f"{e(str(summary.get('track', out_dir.name)))}</title><style>{_STYLE}</style>"
              f"</head><body><h1>{e(title)} {e(out_dir.name)}</h1>"]
     parts.append("<h2>Summary</h2><table>")
-    for name, value in summary_rows(summary):
+    rows = summary_rows(summary)
+    if "recording" in summary:  # a replay: what was replayed
+        rows.insert(0, ("recording", str(summary["recording"])))
+    for name, value in rows:
         if value.strip(" -/") == "":
             continue  # not measured in this kind of run (a replay has no lap times)
         parts.append(f"<tr><td class='k'>{e(name)}</td><td>{e(value)}</td></tr>")

@@ -44,6 +44,7 @@ def test_report_of_a_full_run_folder(tmp_path: Path) -> None:
 
 
 def test_report_without_frames_or_plots(tmp_path: Path) -> None:
-    html = write_report(tmp_path, {"track": "x", "stop_reason": "timeout"}, "replay").read_text()
-    assert "timeout" in html
+    html = write_report(tmp_path, {"recording": "a.mcap", "stop_reason": "timeout"},
+                        "replay").read_text()
+    assert "timeout" in html and "<td>a.mcap</td>" in html
     assert "data:image" not in html and "<video" not in html and "Frames" not in html
