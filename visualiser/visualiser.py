@@ -27,6 +27,12 @@ from visualiser.laps import LapTimer
 log = logging.getLogger(__name__)
 
 
+LEGEND_FRAC = 0.26
+"""Width of the strip kept for the legend on the left, as a fraction of the frame's height."""
+COLOUR_BAR_FRAC = 0.1
+"""Width of the strip kept for the speed colour bar on the right (fraction of the height)."""
+
+
 def frame_file_name(t_s: float) -> str:
     """``frame_<milliseconds, 9 digits>.png``: files sort by time."""
     return f"frame_{int(round(t_s * 1000.0)):09d}.png"
@@ -65,7 +71,11 @@ class FrameRenderer:
             parts.append(self.track.cones_xy_m)
         if len(self._trace_array):
             parts.append(self._trace_array)
-        return WorldToPixel.fit(w, h, np.concatenate(parts))
+        # The track fits between the legend (left) and the speed colour bar (right).
+        left_px, right_px = int(LEGEND_FRAC * h), int(COLOUR_BAR_FRAC * h)
+        inner = WorldToPixel.fit(max(w - left_px - right_px, 1), h, np.concatenate(parts))
+        shift_m = 0.5 * (left_px - right_px) / inner.px_per_m
+        return WorldToPixel(w, h, inner.centre_x_m - shift_m, inner.centre_y_m, inner.px_per_m)
 
     def render(self, frame: FrameData, hud_extra: tuple[str, ...] = ()) -> Any:
         """Draw ``frame`` (adding its poses to the driven trace); returns the Surface."""
