@@ -97,6 +97,10 @@ class PlannerConfig:
     exploration_start_m: float = 3.0
     """While exploring, the path's curvature over its first metres (from the car to the middle
     of the track) does not set the speed profile; the manoeuvre's own curvature is checked."""
+    loop_through_start_m: float = 3.0
+    """While exploring, a loop found in the cones is the track only when it passes this near
+    the start (m): a loop of part of the track (one lobe of a figure-like layout, closed
+    through another stretch's cones) is not."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     fallback_speed_mps: float = 4.0
@@ -114,7 +118,12 @@ class PlannerConfig:
     """Fraction of the car's steering rate the profile lets the path's curvature changes use
     (the rest corrects the car)."""
     understeer_rad_per_mps2: float = 0.004
-    """The car's understeer (extra steering per lateral acceleration) for that limit."""
+    """The car's understeer (extra steering per lateral acceleration) for that limit and the
+    steering angle's."""
+    steer_angle_fraction: float = 0.85
+    """Fraction of the car's steering lock a bend may take at speed (kinematic angle plus the
+    understeer's): the rest corrects the car. Binds only in the tightest bends (radius below
+    about 3.5 m), where the understeer at the lateral limit would ask for more than the lock."""
     max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0

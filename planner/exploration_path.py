@@ -16,12 +16,22 @@ import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
 
 FloatArray = NDArray[np.float64]
 
 BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+UNKNOWN = int(ConeColour.UNKNOWN)
+
+SAME_CONE_M = 0.25
+"""Two landmarks nearer than this (m) are one cone: cones stand further apart."""
+
+OWN_COLOUR_REACH_M = 3.0
+"""A cone of the side's own colour is taken over a nearer one of unknown colour (a stray
+cone) when it is at most this much (m) further; further on it is the boundary's next cone and
+the nearer one the boundary's, its colour not yet voted (the first cones seen at the start)."""
 
 MIN_STEP_M = 1.5
 """A gate nearer than this ahead of the last point (m) is passed, not stepped to."""
@@ -52,7 +62,7 @@ def exploration_path(
     xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     col = np.asarray(colours, np.int64).reshape(-1)
     keep = np.all(np.isfinite(xy), axis=1)
-    xy, col = xy[keep], col[keep]
+    xy, col = _one_per_cone(xy[keep], col[keep])
     point = np.asarray(start_xy_m, np.float64)
     yaw = float(start_yaw_rad)
     points = [point.copy()]
@@ -69,10 +79,10 @@ def exploration_path(
         if left is not None and right is not None:
             target = 0.5 * (xy[left] + xy[right])
         elif left is not None:
-            target = xy[left] - half * _inward(xy, col, left, to_left)
+            target = xy[left] - half * _inward(xy, col, left, point, to_left)
         else:
             assert right is not None
-            target = xy[right] + half * _inward(xy, col, right, to_left)
+            target = xy[right] + half * _inward(xy, col, right, point, to_left)
         for i in (left, right):
             if i is not None:
                 unused[i] = False
@@ -91,6 +101,24 @@ def exploration_path(
     return np.asarray(points, np.float64)
 
 
+def _one_per_cone(xy: FloatArray, col: NDArray[np.int64]) -> tuple[FloatArray, NDArray[np.int64]]:
+    """One point per physical cone: landmarks nearer than ``SAME_CONE_M`` to another are the
+    same cone mapped twice (before the loop closes, the SLAM does not associate a cone it saw
+    long ago: seed 000 5.3.2; across a narrow part of the track it sees it again). The one of a
+    known colour is kept."""
+    if len(xy) < 2:
+        return xy, col
+    pairs = cKDTree(xy).query_pairs(SAME_CONE_M, output_type="ndarray")
+    if not len(pairs):
+        return xy, col
+    drop = np.zeros(len(xy), bool)
+    for i, j in pairs:
+        if drop[i] or drop[j]:
+            continue
+        drop[i if col[i] == UNKNOWN and col[j] != UNKNOWN else j] = True
+    return xy[~drop], col[~drop]
+
+
 def _next_gate(
     xy: FloatArray, col: NDArray[np.int64], unused: NDArray[np.bool_], point: FloatArray,
     yaw: float, look_ahead_m: float, track_width_m: float, behind_m: float = -0.3,
@@ -103,17 +131,18 @@ def _next_gate(
     rel = xy - point
     ahead = rel[:, 0] * c + rel[:, 1] * s
     lateral = -rel[:, 0] * s + rel[:, 1] * c
-    near = unused & (ahead > -behind_m) & (ahead < look_ahead_m) & (np.abs(lateral) < track_width_m)
-    is_left = near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0)))
-    is_right = near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0)))
-    # a cone of the side's own colour is preferred to one of unknown colour (a stray cone)
-    if (is_left & (col == BLUE)).any():
-        is_left &= col == BLUE
-    if (is_right & (col == YELLOW)).any():
-        is_right &= col == YELLOW
     distance = np.hypot(ahead, lateral)
-    left = int(np.argmin(np.where(is_left, distance, np.inf))) if is_left.any() else None
-    right = int(np.argmin(np.where(is_right, distance, np.inf))) if is_right.any() else None
+    left = right = None
+    # the cones within a track width to the side; a side that has none there is looked for a
+    # half width further (in a bend the far side's next cone lies wide of the heading)
+    for reach_m in (track_width_m, 1.5 * track_width_m):
+        near = unused & (ahead > -behind_m) & (ahead < look_ahead_m) & (np.abs(lateral) < reach_m)
+        if left is None:
+            left = _nearest(near & ((col == BLUE) | ((col != YELLOW) & (lateral > 0.0))),
+                            col == BLUE, distance)
+        if right is None:
+            right = _nearest(near & ((col == YELLOW) | ((col != BLUE) & (lateral <= 0.0))),
+                             col == YELLOW, distance)
     if left is None and right is None:
         return None
     if left is not None and right is not None:
@@ -131,17 +160,50 @@ def _next_gate(
     return left, right
 
 
-def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, to_left: FloatArray) -> FloatArray:
-    """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel
-    (``to_left``: the car's left): from the line to its nearest neighbour of the same colour,
-    or the car's own left when it has none within 8 m."""
-    same = np.flatnonzero(col == col[i])
+def _nearest(candidates: NDArray[np.bool_], own_colour: NDArray[np.bool_],
+             distance: FloatArray) -> int | None:
+    """Index of the nearest candidate, one of the side's own colour before a nearer one of
+    unknown colour (a stray cone); None when there is no candidate."""
+    if not candidates.any():
+        return None
+    nearest = int(np.argmin(np.where(candidates, distance, np.inf)))
+    own = candidates & own_colour
+    if own.any():
+        nearest_own = int(np.argmin(np.where(own, distance, np.inf)))
+        # ... unless the side's own colour is only further on (its next cone, past the
+        # nearest one whose colour is not known yet)
+        if distance[nearest_own] <= distance[nearest] + OWN_COLOUR_REACH_M:
+            return nearest_own
+    return nearest
+
+
+def _inward(xy: FloatArray, col: NDArray[np.int64], i: int, point: FloatArray,
+            to_left: FloatArray) -> FloatArray:
+    """The unit normal of the boundary at cone ``i`` pointing left of the direction of travel:
+    from the line to its nearest neighbour of the same colour (of the same side for a cone of
+    unknown colour), run away from ``point``; ``to_left`` (the car's left) when it has none
+    within 8 m."""
+    same = col == col[i]
+    if col[i] not in (BLUE, YELLOW):
+        # a cone of unknown colour: its neighbours on the same side of the path, not across
+        side = (xy - point) @ to_left
+        same &= np.sign(side) == np.sign(side[i])
+    same = np.flatnonzero(same)
     same = same[same != i]
     if len(same):
         d = np.hypot(*(xy[same] - xy[i]).T)
         j = int(same[np.argmin(d)])
         if float(np.min(d)) < 8.0:
-            tangent = xy[j] - xy[i]
-            normal = np.array([-tangent[1], tangent[0]]) / max(float(np.hypot(*tangent)), 1e-9)
-            return normal if float(normal @ to_left) >= 0.0 else -normal
+            tangent = (xy[j] - xy[i]) / max(float(np.hypot(*(xy[j] - xy[i]))), 1e-9)
+            forward = np.array([to_left[1], -to_left[0]])
+            along = float(tangent @ forward)
+            if abs(along) > 0.3:
+                tangent = tangent if along > 0.0 else -tangent
+            elif np.hypot(*(xy[i] - point)) < np.hypot(*(xy[j] - point)):
+                # the boundary runs across the heading (deep in a bend): it runs on from the
+                # nearer of the two cones to the further
+                pass
+            else:
+                tangent = -tangent
+            return np.array([-tangent[1], tangent[0]])
     return to_left

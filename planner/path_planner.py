@@ -27,6 +27,7 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
+    steering_angle_speed_limit_mps,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
@@ -69,6 +70,11 @@ class PathPlanner:
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
+        self._origin_yaw_rad = 0.0
+        self._start_crossings = 0
+        self._explored_m = 0.0
+        """Distance (m) driven while exploring, from the poses the planner saw."""
+        self._last_xy: tuple[float, float] | None = None
         """Arc length (m) from the start to the start line while exploring autonomously."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
@@ -104,6 +110,7 @@ class PathPlanner:
             pose = map_state.pose
             if math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
                 self._origin_xy = (pose.x_m, pose.y_m)
+                self._origin_yaw_rad = pose.yaw_rad
                 logger.info("no exploration drive: exploring from the cones as they are mapped")
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)
@@ -119,6 +126,7 @@ class PathPlanner:
         self, points: FloatArray, closed: bool, source: str, map_state: MapState
     ) -> bool:
         c = self.config
+        exploring = source == "cones" and not closed and self._origin_xy is not None
         try:
             frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
                                     smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
@@ -128,7 +136,9 @@ class PathPlanner:
                 raced = self._race_frame(frame, map_state)
             if raced is not None:
                 frame = raced
-            elif c.centre_on_cones and len(cones) >= 8:
+            elif c.centre_on_cones and len(cones) >= 8 and not exploring:
+                # (an explored path runs through the gates' middles already; centring it on
+                # every cone within reach also pulls it toward another stretch of the track)
                 frame = centre_on_cones(frame, cones.xy_m, cones.colour,
                                         max_shift_m=c.max_centring_shift_m,
                                         resample_m=c.baseframe_resample_m,
@@ -186,6 +196,11 @@ class PathPlanner:
             track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
             max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
         )
+        if closed and self._origin_xy is not None \
+                and _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
+            self.rejects["loop_misses_start"] += 1
+            logger.debug("a loop in the cones that misses the start: still exploring")
+            closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
@@ -221,6 +236,7 @@ class PathPlanner:
             kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
+        extra = np.minimum(extra, self._steering_angle_limit(kappa))
         if c.speed_mode == "two_level":
             extra = np.minimum(extra, two_level_speed_mps(
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
@@ -231,6 +247,12 @@ class PathPlanner:
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
+
+    def _steering_angle_limit(self, kappa_1pm: FloatArray) -> FloatArray:
+        c = self.config
+        return steering_angle_speed_limit_mps(
+            kappa_1pm, self.car.wheelbase_m, c.steer_angle_fraction * self.car.max_steer_rad,
+            c.understeer_rad_per_mps2, crawl_mps=c.min_plan_speed_mps)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:
         """The baseframe speed profile (m/s) at arc lengths ``s_m``."""
@@ -255,6 +277,36 @@ class PathPlanner:
             if self._origin_xy is not None and self.frame.closed:
                 self._count_from_origin(map_state, s)
 
+    def _explore_progress(self, x_m: float, y_m: float, map_state: MapState) -> None:
+        """Distance driven while exploring, and laps counted where the car crosses its start
+        line again (across the start heading, within a track width of the start: the big orange
+        cones' line when they are mapped, else the start) while no loop is mapped: with no cone
+        colours the big orange cones and the loop's closure may never come, and the lap is
+        still done."""
+        assert self._origin_xy is not None
+        ox, oy = self._origin_xy
+        c, s = math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)
+        cones = map_state.cones
+        line_m = 0.0
+        if len(cones):
+            big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)]
+            big = big[np.hypot(big[:, 0] - ox, big[:, 1] - oy) < self.config.start_line_search_m]
+            if len(big):
+                line_m = float(np.mean((big[:, 0] - ox) * c + (big[:, 1] - oy) * s))
+        along = (x_m - ox) * c + (y_m - oy) * s - line_m
+        lateral = -(x_m - ox) * s + (y_m - oy) * c
+        if self._last_xy is not None:
+            last_along = (self._last_xy[0] - ox) * c + (self._last_xy[1] - oy) * s - line_m
+            self._explored_m += math.hypot(x_m - self._last_xy[0], y_m - self._last_xy[1])
+            laps_driven = self._explored_m / self.config.min_loop_length_m
+            if last_along < 0.0 <= along and abs(lateral) < self.config.nominal_track_width_m \
+                    and laps_driven > self._start_crossings + 1:
+                self._start_crossings += 1
+                self.lap = max(self.lap, self._start_crossings)
+                logger.info("exploring: start line crossed after %.0f m: lap %d",
+                            self._explored_m, self.lap)
+        self._last_xy = (x_m, y_m)
+
     def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
         """Laps of an explored track count from the start line (the big orange cones nearest
         the start, else the start itself), the explored lap included."""
@@ -270,6 +322,9 @@ class PathPlanner:
         self._line_offset_m = (s_line - s_origin) % length
         self._s_start = s_origin
         self._progress_m = (s_car_m - s_origin) % length
+        # the loop may close only after the car has passed the start again: whole laps from
+        # the distance driven while exploring
+        self._progress_m += length * max(round((self._explored_m - self._progress_m) / length), 0)
         logger.info("laps count from the start line %.1f m past the start; %.1f m driven",
                     self._line_offset_m, self._progress_m)
 
@@ -302,6 +357,8 @@ class PathPlanner:
             self.rejects["non_finite_pose"] += 1
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
+        if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
+            self._explore_progress(pose.x_m, pose.y_m, map_state)
         if self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
             self._frame_from_cones(map_state)
             if self.frame is not None and self.frame.closed:
@@ -380,6 +437,7 @@ class PathPlanner:
         ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
         v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
                                                                       self.limits))
+        v_lim = np.minimum(v_lim, self._steering_angle_limit(cand.curvature_1pm))
         v_lim = np.minimum(v_lim, cand.speed_cap_mps)
         # a stop: brake (within the limits) to stand at the end of the candidate
         v_end = 0.0 if stop else float(v_lim[-1])
@@ -406,3 +464,14 @@ class PathPlanner:
             waypoints_xy_m=np.zeros((0, 2)) if waypoints is None else waypoints,
             lap=self.lap,
         )
+
+
+def _distance_to_loop_m(points_xy_m: FloatArray, xy_m: tuple[float, float]) -> float:
+    """Distance (m) from ``xy_m`` to the closed polyline through ``points_xy_m`` (K, 2)."""
+    a = np.asarray(points_xy_m, np.float64)
+    b = np.roll(a, -1, axis=0)
+    ab = b - a
+    p = np.asarray(xy_m, np.float64)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                              1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))

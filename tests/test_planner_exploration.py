@@ -75,6 +75,46 @@ def test_a_missing_cone_and_an_extra_cone_beside_the_track_change_little() -> No
     assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.5)
 
 
+def test_a_cone_mapped_twice_counts_once() -> None:
+    """Before the loop closes the SLAM maps a cone seen long ago a second time, a few cm from
+    the first. Through a corner with one side seen, a cone's twin is no neighbour that gives
+    the boundary's direction: the path stays on the centreline (it ran 2.3 m off it)."""
+    _, right, centre = _bend()
+    rng = np.random.default_rng(4)
+    twins = right + rng.normal(0.0, 0.02, right.shape)
+    path = exploration_path(np.r_[right, twins], np.full(2 * len(right), YELLOW), (0.0, 0.0),
+                            0.0, track_width_m=3.5)
+    assert len(path) >= 8
+    assert np.all(_distance_to(path[1:], _dense(np.r_[[[0.0, 0.0]], centre])) < 0.3)
+
+
+def test_a_wide_gate_is_still_a_gate() -> None:
+    """The track widens to 5.5 m (a bend's entry): the right cones lie 4 m to the side, beyond
+    a nominal width (3.5 m); they are still paired with the left ones and the path runs in the
+    middle (y = -1.25 m) instead of half a nominal width inside the left side (y = -0.25 m)."""
+    x = np.array([3.0, 6.0, 9.0, 12.0])
+    cones = np.r_[np.c_[x, np.full(4, 1.5)], np.c_[x, np.full(4, -4.0)]]
+    colours = np.r_[np.full(4, BLUE), np.full(4, YELLOW)]
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0, track_width_m=3.5)
+    assert len(path) == 5
+    assert np.allclose(path[1:, 1], -1.25, atol=1e-9)
+
+
+def test_first_cones_of_unknown_colour_make_the_first_gate() -> None:
+    """At the start the nearest cones' colours are not voted yet while the next blue cone
+    already is (QR_Nov_2022's start): the first gate is the unknown pair beside the start,
+    not the far blue cone with one unknown cone diagonally (whose 'boundary' then ran across
+    the track and sent the car into the right side)."""
+    cones = np.array([[1.8, 1.4], [2.1, -2.5], [4.2, 1.8], [4.9, -1.5], [5.8, 2.4],
+                      [6.7, -1.0], [8.4, 3.2], [9.2, -0.2]])
+    colours = np.array([UNKNOWN, UNKNOWN, BIG, BIG, BIG, BIG, BLUE, YELLOW])
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0)
+    assert len(path) >= 3
+    assert np.allclose(path[1], [1.95, -0.55], atol=1e-9)
+    # every point between the two sides' cones
+    assert np.all((path[1:, 1] > -2.0) & (path[1:, 1] < 2.5))
+
+
 def test_no_cone_ahead_gives_only_the_start() -> None:
     left, right, _ = _bend()
     cones = np.r_[left, right] - np.array([60.0, 0.0])  # all behind the car
@@ -103,3 +143,73 @@ def test_autocross_on_small_track_is_driven_by_the_stack_alone(tmp_path) -> None
     assert summary["cones_hit"] == 0
     assert summary["off_track"] == 0
     assert summary["cone_hits"] == []
+
+
+@pytest.mark.shared_data("tracks/eufs/peanut.csv")
+def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
+    """The peanut's waist: the car sees the cones of the start again across it before its lap
+    is done (the SLAM maps them twice until the loop closes), and the right lobe with the
+    waist's cones looks like a loop of its own that misses the start. Both once stopped the
+    car or put it into the cones."""
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+    from support.shared_data import shared_path
+
+    track = str(shared_path("tracks", "eufs", "peanut.csv"))
+    summary = run_sim(AppConfig(), SimOptions(track=track, seed=3, mission="autocross",
+                                              render=False, record=False, out_dir=tmp_path))
+    assert summary["finished"], summary["stop_reason"]
+    assert summary["laps_completed"] == 1
+    assert summary["cones_hit"] == 0
+    assert summary["off_track"] == 0
+
+
+def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> None:
+    """While no loop is mapped (the far side mapped late, or no colours: no big orange cones)
+    the lap ends where the car crosses its start line again; when the loop then closes, the
+    lap driven still counts, once, and the next crossing is lap 2 (a one-lap autocross on
+    QR_Nov_2022 drove two, and with the camera dead small_track was never finished)."""
+    from planner_closed_loop_helpers import cone_map
+
+    from common.messages import MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    planner = PathPlanner(config.planner, config.car)
+    radius_m, half_m = 20.0, 1.75
+    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]  # from 0,0 heading +x
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
+    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
+
+    def state(t_s: float, angle: float, seen: np.ndarray) -> MapState:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        pose = PoseEstimate(t_s, x, y, angle, 8.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        return MapState(t_s, pose, cone_map(cones[seen], colours[seen]), loop_closed=False)
+
+    def near(angle: float) -> np.ndarray:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        return np.hypot(cones[:, 0] - x, cones[:, 1] - y) < 12.0
+
+    planner.start_autonomous(state(0.0, 0.0, near(0.0)))
+    assert planner.exploring
+    # one lap and a fifth, seeing only the cones within 12 m: no loop is mapped
+    angles = np.linspace(0.0, 2.4 * math.pi, 200)
+    laps = []
+    for k, angle in enumerate(angles[1:], 1):
+        planner.plan(state(0.1 * k, float(angle), near(float(angle))), 0.1 * k)
+        assert planner.exploring
+        laps.append(planner.lap)
+    crossed = int(np.argmax(np.asarray(laps) == 1)) + 1
+    assert laps[-1] == 1 and abs(angles[crossed] - 2.0 * math.pi) < 0.1
+    # now the whole lap is mapped: the loop closes a fifth of a lap past the start
+    everything = np.ones(len(cones), bool)
+    planner.plan(state(20.1, float(angles[-1]), everything), 20.1)
+    assert not planner.exploring
+    assert planner.lap == 1
+    # on to the next crossing: lap 2
+    for k, angle in enumerate(np.linspace(2.4 * math.pi, 4.2 * math.pi, 160), 202):
+        planner.plan(state(0.1 * k, float(angle), everything), 0.1 * k)
+    assert planner.lap == 2
