@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import copy
 import math
+import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -24,6 +25,7 @@ import numpy as np
 
 from common.cli_types import non_negative_int, positive_float, positive_int
 from orchestrator.config import AppConfig
+from orchestrator.progress import Progress
 from simulator.faults import KINDS
 
 HELP = "faults at speed: each fault kind while racing, per track: outcome, stop distance, hits"
@@ -121,7 +123,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
                 jobs.append((name, kind, at, v_at,
                              pool.submit(_run, config, track, args.laps, args.seed, [spec],
                                          False)))
-        for name, kind, at, v_at, future in jobs:
+        progress = Progress("faults", len(jobs), "cells", sys.stderr.isatty())
+        for done, (name, kind, at, v_at, future) in enumerate(jobs, start=1):
             s = future.result()
             safe, outcome = _verdict(kind, s, args.laps)
             estop = s.get("estop") or {}
@@ -129,8 +132,10 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
             limit_m = estop.get("allowed_distance_m", math.nan) if kind == "estop" else math.nan
             unsafe += not safe
             cones += int(s["cones_hit"])
-            print(f"{name:>14} {kind:>12} {at:>6.2f} {v_at:>6.2f} {outcome:>11} "
-                  f"{s['cones_hit']:>4d} {s['off_track']:>3d} {stop_m:>7.2f} {limit_m:>7.2f} "
-                  f"{'yes' if safe else 'NO':>5}  {s['stop_reason']}", flush=True)
+            progress.write(f"{name:>14} {kind:>12} {at:>6.2f} {v_at:>6.2f} {outcome:>11} "
+                           f"{s['cones_hit']:>4d} {s['off_track']:>3d} {stop_m:>7.2f} "
+                           f"{limit_m:>7.2f} {'yes' if safe else 'NO':>5}  {s['stop_reason']}")
+            progress.update(done, f"unsafe {unsafe}")
+        progress.close()
     print(f"unsafe_cells={unsafe} cones_hit={cones}")
     return 0

@@ -17,6 +17,7 @@ import argparse
 import copy
 import math
 import statistics
+import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -25,6 +26,7 @@ from typing import Any
 
 from common.cli_types import positive_int, seed_list
 from orchestrator.config import AppConfig
+from orchestrator.progress import Progress
 from simulator.faults import fault_spec
 
 HELP = "closed-loop trackdrive over many layouts: clean runs, cones hit, best lap / minimum"
@@ -142,6 +144,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
           f"{'min_s':>7} {'ratio':>6} {'wall_s':>6} {'':>5}  stop_reason", flush=True)
     results: list[dict[str, Any]] = []
     clean_runs = 0
+    progress = Progress("trackdrive", len(runs), "runs", sys.stderr.isatty())
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = [pool.submit(_one, config, track, args.laps, seed, args.fault, args.mission,
                                args.exploration) for track, seed in runs]
@@ -150,7 +153,9 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
             results.append(s)
             line, clean = _row(s, args.laps)
             clean_runs += clean
-            print(line, flush=True)
+            progress.write(line)
+            progress.update(len(results), f"clean {clean_runs}")
+    progress.close()
     ratios = [float(s.get("lap_ratio", math.inf)) for s in results]
     finite = [r for r in ratios if math.isfinite(r)]
     worst = max(results, key=lambda s: (float(s.get("lap_ratio", math.inf)),

@@ -104,6 +104,23 @@ def seed_list(text: str) -> list[int]:
     return seeds
 
 
+def host_port(text: str) -> tuple[str, int]:
+    """``[HOST:]PORT`` (``8765``, ``0.0.0.0:8765``, ``[::1]:8765``) -> (host, port); the host
+    defaults to 127.0.0.1 (this machine only); port 0 picks a free one."""
+    host, sep, port_text = text.rpartition(":")
+    host = host.strip("[]") if sep else ""
+    try:
+        port = int(port_text, 10)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be [HOST:]PORT with PORT an integer in 0..65535, got {text!r}") from None
+    if not 0 <= port <= 65535 or (sep and not host) or any(c.isspace() for c in host):
+        raise argparse.ArgumentTypeError(
+            f"must be [HOST:]PORT with PORT an integer in 0..65535, got {text!r}")
+    return host or "127.0.0.1", port
+
+
 CHECKED_TYPES: tuple[Callable[..., object], ...] = (
-    positive_int, non_negative_int, positive_float, positive_seconds, size_wxh, seed_list)
+    positive_int, non_negative_int, positive_float, positive_seconds, size_wxh, seed_list,
+    host_port)
 """The checked types of this module (``int_in`` makes more)."""

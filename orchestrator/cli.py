@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from common.cli_types import (
+    host_port,
     int_in,
     non_negative_int,
     positive_float,
@@ -48,6 +49,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      metavar="KIND@T[:DURATION]",
                      help="inject a fault: estop, gps-dropout, lidar-dead, imu-nan, can-garbage, "
                      "camera-dead (repeatable)")
+    _add_live(sim)
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
     sim.set_defaults(func=_sim)
 
@@ -68,6 +70,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     replay.add_argument("--single-process", action="store_true",
                         help="read and parse the recording in Main's own process (by default "
                              "a second process does it beside Main; same outputs either way)")
+    _add_live(replay)
     replay.set_defaults(func=_replay)
 
     drive = subparsers.add_parser(
@@ -83,6 +86,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     drive.add_argument("--render", action="store_true", help="render frames of the map")
     drive.add_argument("--rt-priority", type=int_in(0, 99), default=None, metavar="N",
                        help="SCHED_FIFO priority of the control loop (default 10; 0: none)")
+    _add_live(drive)
     drive.set_defaults(func=_drive)
 
     record = subparsers.add_parser(
@@ -110,6 +114,12 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     _register_render(subparsers, common)
 
 
+def _add_live(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--live", type=host_port, default=None, metavar="[HOST:]PORT",
+                        help="serve a live view over a Foxglove WebSocket (host default "
+                             "127.0.0.1; same topics as the recording)")
+
+
 def _sim(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.sim import SimOptions, run_sim
     from orchestrator.summary_table import format_summary
@@ -118,6 +128,7 @@ def _sim(args: argparse.Namespace, config: AppConfig) -> int:
         track=args.track, laps=args.laps, seed=args.seed, mapper=args.mapper, out_dir=args.out,
         render=args.render, record=args.record, realtime=args.realtime, faults=args.fault,
         progress=sys.stderr.isatty(), mission=args.mission, exploration=args.exploration,
+        live=args.live,
     )
     summary = run_sim(config, options)
     if args.json:
@@ -140,7 +151,9 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     summary = run_replay(config, ReplayOptions(recording, rate=args.rate,
                                                out_dir=args.out, render=args.render,
                                                config_file=config_file,
-                                               pipeline=not args.single_process))
+                                               pipeline=not args.single_process,
+                                               live=args.live,
+                                               progress=sys.stderr.isatty()))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -168,9 +181,14 @@ def _drive(args: argparse.Namespace, config: AppConfig) -> int:
     from orchestrator.live import DriveOptions, LiveMain
     from orchestrator.sim import default_out_dir
 
+    if args.live is not None:
+        from recordings.live_server import check_address
+
+        check_address(*args.live)  # the server starts in the executive process: fail early
     options = DriveOptions(out_dir=args.out or default_out_dir(), laps=args.laps,
                            mission=args.mission, exploration=args.exploration,
-                           record=args.record, seconds=args.seconds, render=args.render)
+                           record=args.record, seconds=args.seconds, render=args.render,
+                           live=args.live)
     if args.rt_priority is not None:
         options.realtime_priority = args.rt_priority
     summary = LiveMain(config, options).run()

@@ -91,6 +91,8 @@ class DriveOptions:
     recording_name: str = "recording.mcap"
     realtime_priority: int = DEFAULT_REALTIME_PRIORITY
     """SCHED_FIFO priority of the reactive layer (control loop and CAN receiver); 0: none."""
+    live: tuple[str, int] | None = None
+    """(host, port) of the Foxglove live view, served by the executive process (``--live``)."""
 
 
 def set_realtime_priority(priority: int) -> tuple[int, int] | None:
@@ -461,5 +463,10 @@ class LiveMain:
             timing["executive_gc_ms"] = self.worker_stats["gc_ms"]
         if "frames" in self.worker_stats:
             summary["frames"] = self.worker_stats["frames"]
+        if "live" in self.worker_stats:
+            summary["live"] = self.worker_stats["live"]
         (self.options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        from orchestrator.report import write_report
+
+        write_report(self.options.out_dir, summary, title="drive")
         return summary

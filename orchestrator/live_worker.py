@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 from common.clock import RealClock
 from common.messages import (
     ActuatorCommand,
+    AsState,
     CanFrame,
     GpsFix,
     MapState,
@@ -116,7 +117,11 @@ class Worker:
         if options.render and options.control:
             from visualiser.visualiser import Visualiser
 
-            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
+                                         laps=config.mission.laps)
+        from orchestrator.outputs import start_live
+
+        self.live: Any = start_live(options.live, config)
         self.times = StageTimes()
         self.stop = threading.Event()
         self.errors: list[str] = []
@@ -136,6 +141,8 @@ class Worker:
             self.hasher.write(topic, message, now_s)
             if self.recorder is not None:
                 self.recorder.write(topic, message, now_s)
+        if self.live is not None:
+            self.live.write(topic, message, now_s)
 
     def _fail(self, layer: str, exc: BaseException) -> None:
         log.exception("%s layer failed", layer)
@@ -177,6 +184,10 @@ class Worker:
                     for reading in readings:
                         if isinstance(reading, GpsFix):
                             self.recorder.write_gps_fix(reading)
+                if self.live is not None:
+                    for reading in readings:
+                        if isinstance(reading, GpsFix):
+                            self.live.write_gps_fix(reading)
                 if self.mapper is None or self.planner is None:
                     continue
                 t0 = time.perf_counter()
@@ -190,7 +201,12 @@ class Worker:
                     next_output_s = now_s + output_period_s
                     self._emit(MAP_STATE, map_state, now_s)
                     if self.visualiser is not None:
-                        self.visualiser.note_pose(map_state.pose.x_m, map_state.pose.y_m)
+                        pose = map_state.pose
+                        self.visualiser.note_pose(
+                            pose.x_m, pose.y_m, pose.speed_mps, now_s,
+                            self.plan.lap if self.plan is not None else 0,
+                            self.command is not None
+                            and self.command.state == AsState.DRIVING)
                 if self.visualiser is not None and now_s >= next_frame_s:
                     next_frame_s = now_s + frame_period_s
                     self.visualiser.submit(map_state, self.plan, self.command)
@@ -256,6 +272,8 @@ class Worker:
                 self._emit(COMMAND, command, now_s)
             if health is not None and self.recorder is not None:
                 self.recorder.write(HEALTH, health, now_s)
+            if health is not None and self.live is not None:
+                self.live.write(HEALTH, health, now_s)
         elif kind == "stop":
             self.stop.set()
         else:
@@ -322,6 +340,7 @@ class Worker:
                     thread.join(2.0)
             for name, close in (("sensors", self.sensors.stop),
                                 ("recorder", getattr(self.recorder, "close", None)),
+                                ("live view", getattr(self.live, "close", None)),
                                 ("visualiser", getattr(self.visualiser, "close", None))):
                 if close is None:
                     continue
@@ -338,6 +357,8 @@ class Worker:
             stats["gc_ms"] = self.gc_times.summary_ms()
         if self.recorder is not None:
             stats["recording_dropped"] = int(getattr(self.recorder, "dropped", 0))
+        if self.live is not None:
+            stats["live"] = self.live.stats()
         if self.visualiser is not None:
             stats["frames"] = {"submitted": self.visualiser.submitted,
                                "dropped": self.visualiser.dropped}

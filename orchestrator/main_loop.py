@@ -87,7 +87,9 @@ class Main:
     ``sensors`` is a :class:`sensors.manager.SensorManager`; ``mapper``, ``planner`` and
     ``controller`` follow the interfaces of their packages; ``outputs`` receive every map state
     (at ``run.output_record_rate_hz``), plan and command in order (the recorder and the output
-    hasher); ``visualiser`` (optional) receives frames it may drop.
+    hasher); ``visualiser`` (optional) receives frames it may drop; ``live`` (optional, a
+    :class:`recordings.live_server.LiveServer`) receives the same messages as ``outputs`` plus
+    the health and GNSS fixes, and never blocks.
     """
 
     def __init__(
@@ -101,6 +103,7 @@ class Main:
         outputs: Sequence[OutputSink] = (),
         recorder: Any = None,
         visualiser: Any = None,
+        live: Any = None,
     ) -> None:
         self.config = config
         self.sensors = sensors
@@ -110,6 +113,7 @@ class Main:
         self.outputs = list(outputs)
         self.recorder = recorder
         self.visualiser = visualiser
+        self.live = live
         self.times = StageTimes()
         self.rejected: Counter[str] = Counter()
         self.map_state: MapState | None = None
@@ -145,8 +149,11 @@ class Main:
         for reading in readings:
             if isinstance(reading, RemoteStop):
                 self.remote = reading
-            elif isinstance(reading, GpsFix) and self.recorder is not None:
-                self.recorder.write_gps_fix(reading)
+            elif isinstance(reading, GpsFix):
+                if self.recorder is not None:
+                    self.recorder.write_gps_fix(reading)
+                if self.live is not None:
+                    self.live.write_gps_fix(reading)
 
         t2 = time.perf_counter()
         self.map_state = self.mapper.update(readings, now_s)
@@ -179,9 +186,15 @@ class Main:
             self._next_output_s = now_s + self._output_period_s
             self._emit(MAP_STATE, self.map_state, now_s)
             if self.visualiser is not None:
-                self.visualiser.note_pose(self.map_state.pose.x_m, self.map_state.pose.y_m)
+                pose = self.map_state.pose
+                self.visualiser.note_pose(
+                    pose.x_m, pose.y_m, pose.speed_mps, now_s,
+                    self.plan.lap if self.plan is not None else 0,
+                    self.command.state == AsState.DRIVING)
             if self.recorder is not None:
                 self.recorder.write(HEALTH, self.health, now_s)
+            if self.live is not None:
+                self.live.write(HEALTH, self.health, now_s)
         if self.visualiser is not None and now_s + 1e-9 >= self._next_frame_s:
             self._next_frame_s = now_s + self._frame_period_s
             self.visualiser.submit(
@@ -213,3 +226,5 @@ class Main:
     def _emit(self, topic: str, message: Any, now_s: float) -> None:
         for sink in self.outputs:
             sink.write(topic, message, now_s)
+        if self.live is not None:
+            self.live.write(topic, message, now_s)

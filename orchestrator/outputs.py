@@ -1,9 +1,11 @@
-"""Output sinks of Main besides the recorder: the hash over every output, in order."""
+"""Output sinks of Main besides the recorder: the hash over every output, in order, and the
+Foxglove live view (``--live``)."""
 
 from __future__ import annotations
 
 from typing import Any
 
+from orchestrator.config import AppConfig
 from recordings.hashing import OutputHasher
 
 
@@ -24,3 +26,14 @@ class HashSink:
 
     def hexdigest(self) -> str:
         return self._hasher.hexdigest()
+
+
+def start_live(address: tuple[str, int] | None, config: AppConfig) -> Any:
+    """The Foxglove live view (:class:`recordings.live_server.LiveServer`) on ``address``
+    (``--live``: host, port), or None when not asked for."""
+    if address is None:
+        return None
+    from recordings.live_server import LiveServer
+
+    host, port = address
+    return LiveServer(host, port, config.car)

@@ -19,6 +19,7 @@ import time
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +33,8 @@ from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner
-from orchestrator.outputs import HashSink
+from orchestrator.outputs import HashSink, start_live
+from orchestrator.progress import Progress, realtime_status
 from orchestrator.replay_front import (
     FrontEndTimes,
     TickInput,
@@ -41,7 +43,7 @@ from orchestrator.replay_front import (
 )
 from recordings.player import Player
 from recordings.reader import RecordingReader
-from recordings.topics import COMMAND
+from recordings.topics import COMMAND, TRUTH_POSE, TRUTH_TRACK
 from sensors.manager import SensorBatch
 
 log = logging.getLogger(__name__)
@@ -60,6 +62,10 @@ class ReplayOptions:
     use_recorded_config: bool = True
     pipeline: bool = True
     """Read and parse the recording in a process of its own, beside Main (same outputs)."""
+    live: tuple[str, int] | None = None
+    """(host, port) of the Foxglove live view (``--live``); None: no live view."""
+    progress: bool = False
+    """A progress bar (on a terminal); otherwise a plain progress line every few seconds."""
 
 
 class TickSensors:
@@ -141,6 +147,10 @@ def replay_config(config: AppConfig, path: Path, config_file: Path | None) -> Ap
     return merged
 
 
+def _status(t_s: float, progress: Progress) -> str:
+    return realtime_status(t_s, progress.wall_s)
+
+
 def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     """Replay a recording through Main; write ``summary.json`` when an out dir is given."""
     path = options.path
@@ -164,33 +174,48 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
     if options.render and options.out_dir is not None:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config.visualiser, options.out_dir / "frames")
+        visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
+                                laps=config.mission.laps)
+    try:
+        live = start_live(options.live, config)
+    except BaseException:
+        getattr(ticks, "close", lambda: None)()
+        raise
     main = Main(config, sensors=sensors, mapper=make_mapper(config),
                 planner=make_planner(config), controller=make_controller(config),
-                outputs=[hasher], visualiser=visualiser)
+                outputs=[hasher], visualiser=visualiser, live=live)
 
     truth_t: list[float] = []
     truth_pose: list[tuple[float, float, float]] = []
     est_pose: dict[float, tuple[float, float, float]] = {}
     track = None
     wall0 = time.perf_counter()
+    progress = Progress("replay", round(n_ticks * dt_s), "s of recording", options.progress)
     try:
         for tick in ticks:
             for log_time_s, message in tick.truth:
                 truth_t.append(log_time_s)
                 truth_pose.append((message.x_m, message.y_m, message.yaw_rad))
                 main.truth = message
+                if live is not None:
+                    live.write(TRUTH_POSE, message, log_time_s)
             if tick.track is not None:
                 track = main.track = tick.track
+                if live is not None:
+                    live.write(TRUTH_TRACK, track, tick.t_s)
             sensors.hand(tick)
             main.tick(tick.t_s)
             if main.map_state is not None and truth_t and abs(truth_t[-1] - tick.t_s) < 1e-6:
                 pose = main.map_state.pose
                 est_pose[truth_t[-1]] = (pose.x_m, pose.y_m, pose.yaw_rad)
+            progress.update(int(tick.t_s), partial(_status, tick.t_s, progress))
     finally:
+        progress.close()
         close = getattr(ticks, "close", None)
         if close is not None:
             close()
+        if live is not None:
+            live.close()
     wall_s = time.perf_counter() - wall0
     if visualiser is not None:
         visualiser.close()
@@ -219,9 +244,14 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
         summary["pose_rmse_m"] = round(float(np.sqrt(np.mean(np.sum(d * d, axis=1)))), 4)
         summary["heading_rmse_rad"] = round(float(np.sqrt(np.mean(dyaw**2))), 5)
         summary["final_offset_m"] = round(float(np.hypot(*d[-1])), 4)
+    if live is not None:
+        summary["live"] = live.stats()
     if track is not None and main.map_state is not None:
         summary["map"] = evaluate_map(main.map_state.cones, track.cones_xy_m, track.colours)
     if options.out_dir is not None:
         options.out_dir.mkdir(parents=True, exist_ok=True)
         (options.out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        from orchestrator.report import write_report
+
+        write_report(options.out_dir, summary, title="replay")
     return summary

@@ -25,15 +25,18 @@ from typing import Any
 
 from common.clock import RealClock, SimClock
 from common.config import config_to_toml
+from common.conventions import wrap_angle
 from common.messages import ActuatorCommand, AsState
 from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig, apply_mission
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
-from orchestrator.outputs import HashSink
+from orchestrator.outputs import HashSink, start_live
+from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
+from recordings import fsd_pb2
 from recordings.recorder import Recorder
-from recordings.topics import TRUTH_POSE, TRUTH_TRACK
+from recordings.topics import EVAL_POSE_ERROR, TRUTH_POSE, TRUTH_TRACK
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
 from simulator.handover import Handover, Phase
@@ -43,8 +46,7 @@ from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
 progress_log = logging.getLogger("progress")
-
-PROGRESS_LINE_S = 5.0
+PROGRESS_LINE_S = LINE_PERIOD_S
 """Wall time (s) between two plain progress lines when stderr is not a terminal."""
 
 
@@ -66,6 +68,8 @@ class SimOptions:
     realtime: bool = False
     faults: list[str] = field(default_factory=list)
     progress: bool = False
+    live: tuple[str, int] | None = None
+    """(host, port) of the Foxglove live view (``--live``); None: no live view."""
     end_at_handover: bool = False
     """End the run when the exploration lap is over (at the RES go): stop reason 'handover'."""
 
@@ -105,6 +109,9 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
                             speed_mps=config.sim.driver_speed_mps,
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
 
+    live = start_live(options.live, config)  # first: a port in use stops nothing half-made
+    if live is not None:
+        live.write(TRUTH_TRACK, track, 0.0)
     clock = SimClock()
     sensors = make_sensors(config, clock)
     hasher = HashSink()
@@ -122,7 +129,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if config.run.render:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config.visualiser, out_dir / "frames")
+        visualiser = Visualiser(config.visualiser, out_dir / "frames", laps=config.mission.laps)
     main = Main(
         config,
         sensors=sensors,
@@ -132,6 +139,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         outputs=outputs,
         recorder=recorder,
         visualiser=visualiser,
+        live=live,
     )
     main.track = track
 
@@ -139,20 +147,29 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     try:
         result = runner.run()
     finally:
+        if live is not None:
+            live.close()
         sensors.stop()
         if recorder is not None:
+            progress_log.info("sim: closing the recording")
             recorder.close()
         if visualiser is not None:
+            progress_log.info("sim: drawing the last frames")
             visualiser.close()
 
     if visualiser is not None:
+        progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
         _movie(config, out_dir)
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
     if visualiser is not None:
         summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
+    if live is not None:
+        summary["live"] = live.stats()
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     runner.log.save(out_dir / "run_log.npz")
+    progress_log.info("sim: writing the plots and report.html")
     _plots(out_dir, runner, track)
+    _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
 
@@ -208,8 +225,8 @@ class _SimRunner:
             truth = self.world.truth()
             self.main.truth = truth
             command = self.main.tick(t_s, raw)
-            if self.recorder is not None and k % 10 == 0:
-                self.recorder.write(TRUTH_POSE, truth, t_s)
+            if k % 10 == 0:
+                self._write_truth(t_s, truth)
             self._observe(t_s, truth, command)
             laps_done = self.person.lap_times_s()
             progress.update(t_s, len(laps_done), self.person.phase,
@@ -220,6 +237,23 @@ class _SimRunner:
                 break
         progress.close()
         return _Result(finished, stop_reason, time.perf_counter() - wall0, self.clock.now_s())
+
+    def _write_truth(self, t_s: float, truth: Any) -> None:
+        """The true pose and the estimate's error against it, to the recording and live view."""
+        sinks = [s for s in (self.recorder, self.main.live) if s is not None]
+        if not sinks:
+            return
+        error = None
+        ms = self.main.map_state
+        if ms is not None:
+            dx, dy = ms.pose.x_m - truth.x_m, ms.pose.y_m - truth.y_m
+            error = fsd_pb2.PoseError(timestamp_s=t_s, position_m=math.hypot(dx, dy), x_m=dx,
+                                      y_m=dy, heading_rad=wrap_angle(ms.pose.yaw_rad
+                                                                     - truth.yaw_rad))
+        for sink in sinks:
+            sink.write(TRUTH_POSE, truth, t_s)
+            if error is not None:
+                sink.write_proto(EVAL_POSE_ERROR, error, t_s)
 
     def _observe(self, t_s: float, truth: Any, command: ActuatorCommand) -> None:
         main = self.main
@@ -271,38 +305,23 @@ class _SimRunner:
 
 
 class _Progress:
-    """Progress of a long run: a one-line bar on stderr (tqdm) when ``bar`` (a terminal), else
-    a plain log line every :data:`PROGRESS_LINE_S` of wall time (CI, logs): simulated time,
-    laps done of N, the last lap time and the real-time factor."""
+    """Progress of a sim run (:class:`orchestrator.progress.Progress`): laps done of N, the
+    simulated time, the real-time factor, the phase and the last lap time; a bar on a terminal
+    (``bar``), else a plain line every :data:`PROGRESS_LINE_S` of wall time."""
 
     def __init__(self, bar: bool, laps: int) -> None:
-        self.bar = None
-        if bar:
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=laps, desc="sim", unit="lap", leave=False)
         self.total = laps
-        self._laps = 0
-        self._wall0 = time.perf_counter()
-        self._next_line_s = PROGRESS_LINE_S
+        self._progress = Progress("sim", laps, "laps", bar, PROGRESS_LINE_S)
 
     def update(self, t_s: float, laps: int, phase: str, last_lap_s: float | None = None) -> None:
-        if self.bar is not None:
-            if laps != self._laps:
-                self.bar.update(laps - self._laps)
-            if int(t_s * 10) % 10 == 0:
-                self.bar.set_postfix_str(f"t={t_s:.0f}s {phase}", refresh=False)
-        self._laps = laps
-        wall = time.perf_counter() - self._wall0
-        if self.bar is None and wall >= self._next_line_s:
-            self._next_line_s = wall + PROGRESS_LINE_S
+        def status() -> str:
             last = f", last lap {last_lap_s:.2f} s" if last_lap_s else ""
-            progress_log.info("sim: t=%.0f s, %s, laps %d of %d%s, %.1fx real time", t_s,
-                              phase, laps, self.total, last, t_s / max(wall, 1e-9))
+            return f"{realtime_status(t_s, self._progress.wall_s)}, {phase}{last}"
+
+        self._progress.update(laps, status)
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self._progress.close()
 
 
 def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runner: _SimRunner,
@@ -377,6 +396,16 @@ def _movie(config: AppConfig, out_dir: Path) -> None:
         make_movie(frames, out_dir / name, config.visualiser.movie_fps)
     except Exception:  # a movie is a convenience: the run's results stand without it
         log.exception("could not make %s", name)
+
+
+def _report(out_dir: Path, summary: dict[str, Any]) -> None:
+    """``report.html`` (a convenience: the run's results stand without it)."""
+    from orchestrator.report import write_report
+
+    try:
+        write_report(out_dir, summary, title="sim")
+    except Exception:
+        log.exception("could not write report.html")
 
 
 def _plots(out_dir: Path, runner: _SimRunner, track: Track) -> None:

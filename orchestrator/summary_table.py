@@ -17,6 +17,13 @@ def _fmt(value: Any) -> str:
 
 def format_summary(summary: dict[str, Any]) -> str:
     """The headline figures of ``summary.json``, one per line."""
+    rows = summary_rows(summary)
+    width = max(len(name) for name, _ in rows)
+    return "\n".join(f"{name:<{width}}  {value}" for name, value in rows)
+
+
+def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """The headline figures of ``summary.json`` as (name, formatted value) rows."""
     timing = summary.get("timing", {})
     map_eval = summary.get("map", {})
     rows = [
@@ -42,7 +49,11 @@ def format_summary(summary: dict[str, Any]) -> str:
         estop = summary["estop"]
         rows.append(("e-stop distance (m)", f"{_fmt(estop.get('stop_distance_m'))} "
                                             f"(allowed {_fmt(estop.get('allowed_distance_m'))})"))
+    if "live" in summary:
+        live = summary["live"]
+        rows.append(("live view", f"{live.get('address')}: {live.get('clients_max')} client(s) "
+                                  f"at most, {live.get('messages_sent')} sent, "
+                                  f"{live.get('messages_dropped')} dropped"))
     if "out_dir" in summary:
         rows.append(("run folder", summary["out_dir"]))
-    width = max(len(name) for name, _ in rows)
-    return "\n".join(f"{name:<{width}}  {_fmt(value)}" for name, value in rows)
+    return [(name, _fmt(value)) for name, value in rows]

@@ -19,8 +19,8 @@ class RecordingConfig:
     chunk_size_bytes: int = 4 * 1024 * 1024
     """A chunk is also closed when its uncompressed messages reach this size."""
     foxglove: bool = True
-    """Also write the Foxglove views: /foxglove/scene (foxglove.SceneUpdate) and /foxglove/gps
-    (foxglove.LocationFix)."""
+    """Also write the Foxglove views: /foxglove/scene (foxglove.SceneUpdate), /foxglove/tf
+    (foxglove.FrameTransform) and /foxglove/gps (foxglove.LocationFix)."""
     foxglove_scene_period_s: float = 0.05
     """Least log time between two scene updates of the map (0: one per map state)."""
     stop_timeout_s: float = 10.0

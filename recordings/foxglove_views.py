@@ -1,9 +1,11 @@
-"""Foxglove views of the stack's messages: ``foxglove.SceneUpdate`` and ``foxglove.LocationFix``.
+"""Foxglove views of the stack's messages: ``foxglove.SceneUpdate``, ``foxglove.FrameTransform``
+and ``foxglove.LocationFix``.
 
 The recorder writes these next to the stack's own topics so that a recording opens in Foxglove's
 3D and Map panels with no setup. Everything is drawn in the ``world`` frame (the car's start
 pose); cones are truncated cones of their class's size and colour, the car a box with an arrow
-along its heading, the plan a line.
+along its heading and its 2-sigma position ellipse, the plan the baseframe, the candidate
+manoeuvres (thin) and the chosen one, the driven trace a line in segments (:class:`TraceSegments`).
 """
 
 from __future__ import annotations
@@ -15,11 +17,12 @@ import numpy as np
 from google.protobuf.duration_pb2 import Duration
 from google.protobuf.timestamp_pb2 import Timestamp
 
-from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan
+from common.messages import ConeColour, ConeSize, GpsFix, MapState, Plan, PoseEstimate
 from common.track import TrackLayout
-from recordings.foxglove import scene_pb2 as fg
+from recordings.foxglove import schemas as fg
 
 WORLD_FRAME = "world"
+CAR_FRAME = "base_link"
 GPS_FRAME = "gps"
 
 #: RGBA of each cone colour class.
@@ -39,6 +42,9 @@ CONE_DIMENSIONS_M: dict[int, tuple[float, float]] = {
 }
 
 CAR_RGBA = (0.85, 0.1, 0.1, 0.8)
+ELLIPSE_RGBA = (1.0, 1.0, 1.0, 0.9)
+TRACE_RGBA = (0.95, 0.3, 0.35, 1.0)
+CANDIDATE_RGBA = (0.55, 0.55, 0.7, 0.6)
 PLAN_RGBA = (0.1, 0.9, 0.3, 1.0)
 BASEFRAME_RGBA = (0.9, 0.9, 0.9, 0.6)
 TRUTH_RGBA_ALPHA = 0.35
@@ -141,9 +147,53 @@ def map_scene(
                 color=_color(CAR_RGBA, 1.0),
             )
         ],
+        lines=[_line(pose_ellipse_xy_m(pose.x_m, pose.y_m, pose.covariance[:2, :2]),
+                     ELLIPSE_RGBA, 0.04, True)],
         metadata=[fg.KeyValuePair(key="speed_mps", value=f"{pose.speed_mps:.3f}")],
     )
     return fg.SceneUpdate(entities=[cone_entity, car_entity])
+
+
+def pose_ellipse_xy_m(x_m: float, y_m: float, cov_xy: np.ndarray, n_sigma: float = 2.0,
+                      steps: int = 24) -> np.ndarray:
+    """Outline (steps, 2) of the ``n_sigma`` ellipse of a 2x2 position covariance (m^2)."""
+    sym = 0.5 * (np.asarray(cov_xy, dtype=float) + np.asarray(cov_xy, dtype=float).T)
+    if not np.all(np.isfinite(sym)):
+        sym = np.zeros((2, 2))
+    values, vectors = np.linalg.eigh(sym)
+    radii = n_sigma * np.sqrt(np.clip(values, 0.0, None))
+    angles = np.linspace(0.0, 2.0 * math.pi, steps, endpoint=False)
+    local = np.stack([np.cos(angles) * radii[0], np.sin(angles) * radii[1]], axis=1)
+    return local @ vectors.T + np.array([x_m, y_m])
+
+
+class TraceSegments:
+    """The driven trace as a scene: each ``period_s`` of log time, the estimated poses since the
+    last segment become one more entity (``trace/<n>``, kept for good), so every message stays
+    small however long the run."""
+
+    def __init__(self, period_s: float = 1.0) -> None:
+        self.period_s = period_s
+        self._points: list[tuple[float, float]] = []
+        self._start_s: float | None = None
+        self._count = 0
+
+    def add(self, t_s: float, x_m: float, y_m: float) -> fg.SceneUpdate | None:
+        """Add a pose at ``t_s``; returns a scene update when a segment is complete."""
+        self._points.append((x_m, y_m))
+        if self._start_s is None:
+            self._start_s = t_s
+        if t_s - self._start_s < self.period_s - 1e-9 or len(self._points) < 2:
+            return None
+        entity = fg.SceneEntity(
+            timestamp=timestamp(t_s), frame_id=WORLD_FRAME, id=f"trace/{self._count:06d}",
+            lifetime=Duration(),
+            lines=[_line(np.asarray(self._points), TRACE_RGBA, 0.08, False)],
+        )
+        self._count += 1
+        self._points = self._points[-1:]  # the next segment starts where this one ends
+        self._start_s = t_s
+        return fg.SceneUpdate(entities=[entity])
 
 
 def plan_scene(plan: Plan) -> fg.SceneUpdate:
@@ -152,6 +202,9 @@ def plan_scene(plan: Plan) -> fg.SceneUpdate:
     if plan.baseframe is not None and len(plan.baseframe.x_m) > 1:
         bf = plan.baseframe
         lines.append(_line(np.column_stack([bf.x_m, bf.y_m]), BASEFRAME_RGBA, 0.05, bf.closed))
+    for index, candidate in enumerate(plan.candidates):
+        if index != plan.chosen_index and len(candidate) > 1:
+            lines.append(_line(np.asarray(candidate), CANDIDATE_RGBA, 0.03, False))
     if len(plan.manoeuvre) > 1:
         m = plan.manoeuvre
         lines.append(_line(np.column_stack([m.x_m, m.y_m]), PLAN_RGBA, 0.15, False))
@@ -187,6 +240,18 @@ def track_scene(track: TrackLayout, t_s: float) -> fg.SceneUpdate:
         metadata=[fg.KeyValuePair(key="name", value=str(track.name))],
     )
     return fg.SceneUpdate(entities=[entity])
+
+
+def frame_transform(pose: PoseEstimate) -> fg.FrameTransform:
+    """The estimated car (``base_link``, rear axle) in ``world``: a 3D panel can follow it."""
+    half_yaw = 0.5 * pose.yaw_rad
+    return fg.FrameTransform(
+        timestamp=timestamp(pose.timestamp_s),
+        parent_frame_id=WORLD_FRAME,
+        child_frame_id=CAR_FRAME,
+        translation=fg.Vector3(x=pose.x_m, y=pose.y_m, z=0.0),
+        rotation=fg.Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)),
+    )
 
 
 #: Assumed user-equivalent range error (m) turning HDOP into a horizontal sigma.

@@ -386,6 +386,20 @@ class GroundTruth(_message.Message):
     steering_rad: float
     def __init__(self, timestamp_s: _Optional[float] = ..., x_m: _Optional[float] = ..., y_m: _Optional[float] = ..., yaw_rad: _Optional[float] = ..., vx_mps: _Optional[float] = ..., vy_mps: _Optional[float] = ..., yaw_rate_radps: _Optional[float] = ..., steering_rad: _Optional[float] = ...) -> None: ...
 
+class PoseError(_message.Message):
+    __slots__ = ("timestamp_s", "position_m", "x_m", "y_m", "heading_rad")
+    TIMESTAMP_S_FIELD_NUMBER: _ClassVar[int]
+    POSITION_M_FIELD_NUMBER: _ClassVar[int]
+    X_M_FIELD_NUMBER: _ClassVar[int]
+    Y_M_FIELD_NUMBER: _ClassVar[int]
+    HEADING_RAD_FIELD_NUMBER: _ClassVar[int]
+    timestamp_s: float
+    position_m: float
+    x_m: float
+    y_m: float
+    heading_rad: float
+    def __init__(self, timestamp_s: _Optional[float] = ..., position_m: _Optional[float] = ..., x_m: _Optional[float] = ..., y_m: _Optional[float] = ..., heading_rad: _Optional[float] = ...) -> None: ...
+
 class Track(_message.Message):
     __slots__ = ("name", "cone_x_m", "cone_y_m", "colours", "sizes", "centreline", "left", "right", "width_m", "is_loop", "lap_length_m")
     NAME_FIELD_NUMBER: _ClassVar[int]

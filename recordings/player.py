@@ -64,7 +64,7 @@ class Player:
             wanted = self._topics
             if wanted is None:
                 wanted = tuple(
-                    t for t in reader.topics if t not in topic_names.FOXGLOVE_TOPICS
+                    t for t in reader.topics if t not in topic_names.DERIVED_TOPICS
                 )
             pacer = _Pacer(self.rate, self._clock) if self.rate is not None else None
             decoders: dict[int, tuple[str, Callable[[bytes], object]]] = {}

@@ -40,8 +40,9 @@ from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap_protobuf.decoder import DecoderFactory
 
 from common.errors import RecordingError
+from recordings import fsd_pb2
 from recordings.codec import PROTO_CLASSES
-from recordings.foxglove import scene_pb2
+from recordings.foxglove import schemas as fg
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +61,7 @@ KNOWN_CLASSES: dict[str, type[ProtoMessage]] = dict(PROTO_CLASSES)
 KNOWN_CLASSES.update(
     {
         cls.DESCRIPTOR.full_name: cls  # type: ignore[attr-defined]
-        for cls in (scene_pb2.SceneUpdate, scene_pb2.LocationFix)
+        for cls in (fg.SceneUpdate, fg.LocationFix, fg.FrameTransform, fsd_pb2.PoseError)
     }
 )
 

@@ -140,6 +140,7 @@ class Recorder:
         self._chunk_max_ns = 0
         self._chunk_opened_wall_s = 0.0
         self._last_scene_ns: int | None = None
+        self._trace = foxglove_views.TraceSegments()
         self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, self.config.queue_length))
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
@@ -307,6 +308,11 @@ class Recorder:
                     message, car.length_m, car.width_m, car.rear_overhang_m
                 )
                 self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
+            self._write_proto(topics.FOXGLOVE_TF, foxglove_views.frame_transform(message.pose),
+                              log_ns)
+            trace = self._trace.add(log_ns * 1e-9, message.pose.x_m, message.pose.y_m)
+            if trace is not None:
+                self._write_proto(topics.FOXGLOVE_SCENE, trace, log_ns)
         elif isinstance(message, Plan):
             self._write_proto(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), log_ns)
         elif isinstance(message, TrackLayout):

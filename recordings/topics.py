@@ -34,10 +34,13 @@ HEALTH = "/health"
 # Simulation only
 TRUTH_POSE = "/truth/pose"
 TRUTH_TRACK = "/truth/track"
+EVAL_POSE_ERROR = "/eval/pose_error"
+"""The estimated pose against the truth (``fsd.PoseError``), for plots; derived, not replayed."""
 
 # Foxglove views (derived; not replayed)
 FOXGLOVE_SCENE = "/foxglove/scene"
 FOXGLOVE_GPS = "/foxglove/gps"
+FOXGLOVE_TF = "/foxglove/tf"
 
 #: Topic of each raw source (``RawBytes.source``); CAN frames go to :data:`CAN_FRAME`.
 RAW_TOPIC_BY_SOURCE: dict[str, str] = {
@@ -50,7 +53,9 @@ RAW_TOPIC_BY_SOURCE: dict[str, str] = {
 RAW_TOPICS: tuple[str, ...] = (GPS_NMEA, IMU_PACKET, CAN_FRAME, LIDAR_PACKET, CAMERA_PACKET)
 OUTPUT_TOPICS: tuple[str, ...] = (MAP_STATE, PLAN, COMMAND, HEALTH)
 TRUTH_TOPICS: tuple[str, ...] = (TRUTH_POSE, TRUTH_TRACK)
-FOXGLOVE_TOPICS: tuple[str, ...] = (FOXGLOVE_SCENE, FOXGLOVE_GPS)
+FOXGLOVE_TOPICS: tuple[str, ...] = (FOXGLOVE_SCENE, FOXGLOVE_GPS, FOXGLOVE_TF)
+DERIVED_TOPICS: tuple[str, ...] = (*FOXGLOVE_TOPICS, EVAL_POSE_ERROR)
+"""Topics made from others for viewing: a replay does not read them."""
 
 #: Message type on each known topic (Foxglove topics carry protobuf messages as they are).
 TOPIC_TYPES: dict[str, type] = {
@@ -71,6 +76,7 @@ TOPIC_TYPES: dict[str, type] = {
 FOXGLOVE_SCHEMAS: dict[str, str] = {
     FOXGLOVE_SCENE: "foxglove.SceneUpdate",
     FOXGLOVE_GPS: "foxglove.LocationFix",
+    FOXGLOVE_TF: "foxglove.FrameTransform",
 }
 
 

@@ -65,6 +65,14 @@ class FrameData:
     trace_xy_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     """Poses (K, 2) since the previous frame, for the driven trace (the frame's own pose is added
     after them)."""
+    trace_speed_mps: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The speed (K,) at each of ``trace_xy_m`` (m/s; the trace is coloured by it)."""
+    lap: int = 0
+    """Laps completed (the plan's counter)."""
+    laps_target: int = 0
+    """Laps the mission drives (0: not known)."""
+    lap_times_s: tuple[float, ...] = ()
+    """Times (s) of the laps completed so far."""
 
 
 def frame_from_messages(
@@ -98,6 +106,7 @@ def frame_from_messages(
         frame.chosen_index = plan.chosen_index
         frame.waypoints_xy_m = plan.waypoints_xy_m
         frame.target_speed_mps = plan.target_speed_mps
+        frame.lap = plan.lap
     if command is not None:
         frame.throttle = command.throttle
         frame.brake = command.brake

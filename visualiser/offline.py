@@ -10,9 +10,12 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from common.messages import ActuatorCommand, GroundTruth, MapState, Plan
+import numpy as np
+
+from common.messages import ActuatorCommand, AsState, GroundTruth, MapState, Plan
 from visualiser.config import VisualiserConfig
 from visualiser.frame_data import frame_from_messages, track_data
+from visualiser.laps import LapTimer
 from visualiser.visualiser import FrameRenderer, frame_file_name
 
 
@@ -59,13 +62,25 @@ class FrameWriter:
         self.plan: Plan | None = None
         self.command: ActuatorCommand | None = None
         self.truth: GroundTruth | None = None
+        self.speed_mps = 0.0
+        self.laps = LapTimer()
+        self._trace: list[tuple[float, float, float]] = []
+        self.laps_target = 0
+        """Laps the mission drove, when known (the recording's configuration)."""
         self.frames: list[Path] = []
         """The files written so far, in order."""
 
     def note(self, message: object) -> None:
-        """Keep a plan, a command or the true pose for the frames that follow."""
-        if isinstance(message, Plan):
+        """Keep a plan, a command or the true pose for the frames that follow; a map state not
+        drawn adds its pose and speed to the driven trace."""
+        if isinstance(message, MapState):
+            pose = message.pose
+            self.speed_mps = pose.speed_mps
+            self._trace.append((pose.x_m, pose.y_m, pose.speed_mps))
+        elif isinstance(message, Plan):
             self.plan = message
+            driving = self.command is not None and self.command.state == AsState.DRIVING
+            self.laps.observe(message.timestamp_s, message.lap, driving, self.speed_mps)
         elif isinstance(message, ActuatorCommand):
             self.command = message
         elif isinstance(message, GroundTruth):
@@ -80,6 +95,14 @@ class FrameWriter:
         """Draw ``map_state`` (at ``t_s``, s) and write its PNG; returns the file."""
         frame = frame_from_messages(map_state, self.plan, self.command,
                                     self.truth if self.config.show_truth else None)
+        self.speed_mps = map_state.pose.speed_mps
+        if self._trace:
+            trace = np.asarray(self._trace)
+            frame.trace_xy_m, frame.trace_speed_mps = trace[:, :2], trace[:, 2]
+            self._trace = []
+        frame.lap = max(frame.lap, self.laps.lap)
+        frame.laps_target = self.laps_target
+        frame.lap_times_s = tuple(self.laps.lap_times_s)
         self.renderer.render(frame)
         target = self.out_dir / frame_file_name(t_s)
         self.writer.write(target)

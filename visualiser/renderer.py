@@ -3,7 +3,8 @@
 Layers, back to front: the true cones (faint, simulation only), the baseframe, candidate
 manoeuvres (the chosen one highlighted), waypoints, the driven trace, landmark covariance
 ellipses (2 sigma), the map's cones by class with confidence as opacity, the true pose (faint),
-the car footprint with its heading and pose ellipse, then the HUD and a scale bar.
+the car footprint with its heading and pose ellipse, then the HUD, a scale bar, the speed colour
+bar, the AS state with the laps, and the legend (:mod:`visualiser.annotations`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from common.messages import ConeColour  # noqa: E402
+from visualiser import annotations as ann  # noqa: E402
+from visualiser.annotations import LegendItem  # noqa: E402
 from visualiser.frame_data import FrameData, TrackData  # noqa: E402
 from visualiser.transform import WorldToPixel  # noqa: E402
 
@@ -96,8 +99,10 @@ def draw_frame(
     track: TrackData | None = None,
     trace_xy_m: np.ndarray | None = None,
     hud_extra: Sequence[str] = (),
+    trace_speed_mps: np.ndarray | None = None,
 ) -> None:
-    """Draw ``frame`` on ``surface`` through ``view``."""
+    """Draw ``frame`` on ``surface`` through ``view``; ``trace_speed_mps`` (K,) colours the
+    driven trace (K, 2) by speed, with a colour bar."""
     surface.fill(BACKGROUND)
     px_per_m = view.px_per_m
     cone_r = max(3, int(round(CONE_RADIUS_M * px_per_m)))
@@ -118,8 +123,14 @@ def draw_frame(
         _lines(surface, CHOSEN_RGB, view.to_px(frame.candidates[frame.chosen_index]), 3)
     for u, v in view.to_px(frame.waypoints_xy_m).tolist():
         pygame.draw.circle(surface, WAYPOINT_RGB, (u, v), 2)
+    speed_top_mps = None
     if trace_xy_m is not None and len(trace_xy_m) >= 2:
-        _lines(surface, TRACE_RGB, view.to_px(trace_xy_m), 1)
+        if trace_speed_mps is not None and len(trace_speed_mps) == len(trace_xy_m):
+            speed_top_mps = ann.speed_scale_mps(trace_speed_mps)
+            ann.draw_speed_trace(surface, view.to_px(trace_xy_m), trace_speed_mps,
+                                         speed_top_mps)
+        else:
+            _lines(surface, TRACE_RGB, view.to_px(trace_xy_m), 1)
 
     n = len(frame.cones_xy_m)
     if n:
@@ -145,6 +156,45 @@ def draw_frame(
 
     _draw_hud(surface, frame, hud_extra)
     _draw_scale_bar(surface, px_per_m)
+    height = surface.get_height()
+    small = _font(max(14, height // 42))
+    if speed_top_mps is not None:
+        ann.draw_colour_bar(surface, speed_top_mps, small)
+    ann.draw_status_panel(
+        surface, frame.state,
+        ann.lap_lines(frame.lap, frame.laps_target, frame.lap_times_s),
+        _font(max(14, height // 36)), _font(max(16, height // 28)))
+    ann.draw_legend(surface, legend_items(frame, track is not None,
+                                                  speed_top_mps is not None), small)
+
+
+def legend_items(frame: FrameData, truth: bool, speed_trace: bool) -> list[LegendItem]:
+    """The legend of what this frame shows (entries only for what is drawn)."""
+    items: list[LegendItem] = [
+        ("blue cone (left)", "dot", CONE_RGB[int(ConeColour.BLUE)]),
+        ("yellow cone (right)", "dot", CONE_RGB[int(ConeColour.YELLOW)]),
+        ("orange cone (start)", "dot", CONE_RGB[int(ConeColour.BIG_ORANGE)]),
+        ("cone, colour unknown", "dot", CONE_RGB[int(ConeColour.UNKNOWN)]),
+        ("cone 2-sigma ellipse", "ellipse", CONE_RGB[int(ConeColour.UNKNOWN)]),
+    ]
+    if truth:
+        items.append(("true cone (sim)", "ring", TRUTH_RGB))
+    items.append(("car estimate, 2-sigma", "box", CAR_RGB))
+    if frame.truth_pose is not None:
+        items.append(("true car (sim)", "box", TRUTH_RGB))
+    if len(frame.baseframe_xy_m) >= 2:
+        items.append(("baseframe", "thin", BASEFRAME_RGB))
+    if len(frame.candidates) > 1:
+        items.append(("candidate manoeuvres", "thin", CANDIDATE_RGB))
+    if 0 <= frame.chosen_index < len(frame.candidates):
+        items.append(("chosen manoeuvre", "line", CHOSEN_RGB))
+    if len(frame.waypoints_xy_m):
+        items.append(("waypoints", "dot", WAYPOINT_RGB))
+    if speed_trace:
+        items.append(("driven trace, by speed", "gradient", TRACE_RGB))
+    else:
+        items.append(("driven trace", "thin", TRACE_RGB))
+    return items
 
 
 def _draw_hud(surface: pygame.Surface, frame: FrameData, extra: Sequence[str]) -> None:

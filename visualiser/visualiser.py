@@ -10,6 +10,7 @@ process (not a thread) keeps the drawing off the loop's GIL.
 from __future__ import annotations
 
 import logging
+import math
 import multiprocessing as mp
 import os
 import queue
@@ -21,8 +22,15 @@ import numpy as np
 from common.messages import ActuatorCommand, GroundTruth, Health, MapState, Plan
 from visualiser.config import VisualiserConfig
 from visualiser.frame_data import FrameData, TrackData, frame_from_messages, track_data
+from visualiser.laps import LapTimer
 
 log = logging.getLogger(__name__)
+
+
+LEGEND_FRAC = 0.26
+"""Width of the strip kept for the legend on the left, as a fraction of the frame's height."""
+COLOUR_BAR_FRAC = 0.1
+"""Width of the strip kept for the speed colour bar on the right (fraction of the height)."""
 
 
 def frame_file_name(t_s: float) -> str:
@@ -48,6 +56,7 @@ class FrameRenderer:
         self.png_compress_level = png_compress_level
         self.track: TrackData | None = None
         self.trace: list[tuple[float, float]] = []
+        self.trace_speed_mps: list[float] = []
         self._trace_array = np.zeros((0, 2))
 
     def view_for(self, frame: FrameData) -> Any:
@@ -62,15 +71,25 @@ class FrameRenderer:
             parts.append(self.track.cones_xy_m)
         if len(self._trace_array):
             parts.append(self._trace_array)
-        return WorldToPixel.fit(w, h, np.concatenate(parts))
+        # The track fits between the legend (left) and the speed colour bar (right).
+        left_px, right_px = int(LEGEND_FRAC * h), int(COLOUR_BAR_FRAC * h)
+        inner = WorldToPixel.fit(max(w - left_px - right_px, 1), h, np.concatenate(parts))
+        shift_m = 0.5 * (left_px - right_px) / inner.px_per_m
+        return WorldToPixel(w, h, inner.centre_x_m - shift_m, inner.centre_y_m, inner.px_per_m)
 
     def render(self, frame: FrameData, hud_extra: tuple[str, ...] = ()) -> Any:
         """Draw ``frame`` (adding its poses to the driven trace); returns the Surface."""
         self.trace.extend((float(x), float(y)) for x, y in frame.trace_xy_m)
+        speeds = np.asarray(frame.trace_speed_mps, dtype=float)
+        if len(speeds) != len(frame.trace_xy_m):
+            speeds = np.full(len(frame.trace_xy_m), frame.speed_mps)
+        self.trace_speed_mps.extend(speeds.tolist())
         self.trace.append((frame.pose[0], frame.pose[1]))
+        self.trace_speed_mps.append(frame.speed_mps)
         self._trace_array = np.asarray(self.trace)
         self._renderer.draw_frame(self.surface, frame, self.view_for(frame), self.track,
-                                  self._trace_array, hud_extra)
+                                  self._trace_array, hud_extra,
+                                  trace_speed_mps=np.asarray(self.trace_speed_mps))
         return self.surface
 
     def save_png(self, path: Path) -> None:
@@ -133,7 +152,7 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
 class Visualiser:
     """Renders map frames to ``out_dir`` in a separate process; ``submit`` never blocks."""
 
-    def __init__(self, config: VisualiserConfig, out_dir: Path | str) -> None:
+    def __init__(self, config: VisualiserConfig, out_dir: Path | str, laps: int = 0) -> None:
         vis = config
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
@@ -147,15 +166,21 @@ class Visualiser:
         )
         self._process.start()
         self._track_sent = False
-        self._trace: list[tuple[float, float]] = []
+        self._trace: list[tuple[float, float, float]] = []
+        self.laps = LapTimer()
+        self.laps_target = laps
         self.submitted = 0
         self.dropped = 0
         self.config = config
 
-    def note_pose(self, x_m: float, y_m: float) -> None:
-        """Remember a pose for the driven trace between frames (cheap; call at ~10 Hz)."""
+    def note_pose(self, x_m: float, y_m: float, speed_mps: float = math.nan,
+                  t_s: float | None = None, lap: int = 0, driving: bool = False) -> None:
+        """Remember a pose and its speed for the driven trace between frames, and time the laps
+        (``lap``: the plan's laps completed; ``driving``: AS state DRIVING) (cheap; ~10 Hz)."""
         if len(self._trace) < 10000:
-            self._trace.append((x_m, y_m))
+            self._trace.append((x_m, y_m, speed_mps))
+        if t_s is not None:
+            self.laps.observe(t_s, lap, driving, speed_mps)
 
     def submit(
         self,
@@ -178,7 +203,12 @@ class Visualiser:
             truth = None
         frame = frame_from_messages(map_state, plan, command, truth, health)
         if self._trace:
-            frame.trace_xy_m = np.asarray(self._trace)
+            trace = np.asarray(self._trace)
+            frame.trace_xy_m = trace[:, :2]
+            frame.trace_speed_mps = trace[:, 2]
+        frame.lap = max(frame.lap, self.laps.lap)
+        frame.laps_target = self.laps_target
+        frame.lap_times_s = tuple(self.laps.lap_times_s)
         try:
             self._jobs.put_nowait(("frame", frame))
         except queue.Full:

@@ -1,1 +1,2 @@
-"""Foxglove's well-known protobuf schemas (``foxglove.SceneUpdate``, ``foxglove.LocationFix``)."""
+"""Foxglove's well-known protobuf schemas (:mod:`recordings.foxglove.schemas`, from the
+``foxglove-schemas-protobuf`` package) and the Foxglove layout shipped with the stack."""
