@@ -27,7 +27,8 @@ FloatArray = NDArray[np.float64]
 def update_position(ukf: UkfLocaliser, xy_world_m: FloatArray,
                     cov: FloatArray | None = None) -> bool:
     """Seed 001's GNSS pose model: z = (x, y) in the world frame, ``cov`` (2, 2) or the
-    configured sigma."""
+    configured sigma; the antenna ``gnss_antenna_x_m`` ahead of the rear axle (seed 001 has it
+    there: 0)."""
     cfg = ukf.config
     if not cfg.use_gnss_position:
         return False
@@ -48,6 +49,13 @@ def update_position(ukf: UkfLocaliser, xy_world_m: FloatArray,
         H[1, ukf.ih] = px
         H[0, IY] = -b
         H[1, IX] = b
+    a = cfg.gnss_antenna_x_m
+    if a != 0.0:
+        # The antenna a ahead of the rear axle: h = p + a (cos yaw, sin yaw).
+        c, s = math.cos(float(ukf.x[IYAW])), math.sin(float(ukf.x[IYAW]))
+        predicted += a * np.array([c, s])
+        H[0, IYAW] += -a * s
+        H[1, IYAW] += a * c
     return ukf.update_linear("gnss_position", z - predicted, H, R,
                              cfg.gnss_position_gate_sigma)
 

@@ -528,12 +528,13 @@ class UkfLocaliser:
             return False
         if self.calibrating and max(abs(v) for v in values) > 0.05:
             self.notify_moving()
-        v = ws.mean_rear_mps
+        k = cfg.odometry_speed_scale
+        v = ws.mean_rear_mps * k
         source = cfg.odometry_yaw_rate_source
         if source == "steering" and steer is not None and math.isfinite(steer.angle_rad):
             w = v * math.tan(steer.angle_rad) / self.car.wheelbase_m
         elif source == "rear_wheels":
-            w = (ws.rear_right_mps - ws.rear_left_mps) / self.car.track_width_m
+            w = k * (ws.rear_right_mps - ws.rear_left_mps) / self.car.track_width_m
         else:
             w = math.nan
         if math.isfinite(w):

@@ -157,6 +157,13 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
                                                pipeline=not args.single_process))
     if args.json:
         print(json.dumps(summary, indent=2))
+    elif summary.get("mode") == "localisation":
+        print(f"localised {summary['log'] or recording} ({summary['ticks']} ticks, "
+              f"{summary['timing']['realtime_factor']}x real time)")
+        for key in ("position_rmse_m", "heading_rmse_deg", "gnss_raw_rmse_m",
+                    "gnss_raw_course_rmse_deg", "nees_position_mean", "gnss_outage"):
+            if key in summary:
+                print(f"{key}: {summary[key]}")
     else:
         timing = summary["timing"]
         print(f"replayed {summary['ticks']} ticks ({timing['sim_time_s']} s) in "
