@@ -1,0 +1,104 @@
+"""The UKF's real-car features (issue 17.3): GNSS retiming (latency, UTC), the IMU's mounting
+rotation, the GNSS antenna's lever arm and the wheel speed scale; each off by default."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from common.car import CarConfig
+from common.conventions import mount_rotation
+from common.messages import GpsFix, ImuSample, PoseEstimate, WheelSpeeds
+from mapper.config import UkfConfig
+from mapper.gnss_timing import GnssTiming
+from mapper.imu_mount import ImuMount
+from mapper.ukf_localiser import UkfLocaliser
+
+
+def _fix(t_s: float, utc_s: float) -> GpsFix:
+    return GpsFix(t_s, 37.7, -122.4, utc_time_s=utc_s)
+
+
+def test_timing_off_by_default_keeps_the_fix() -> None:
+    cfg = UkfConfig()
+    timing = GnssTiming(cfg.gnss_latency_s, cfg.gnss_time_from_utc)
+    fix = _fix(12.3, 500.0)
+    assert timing.retime(fix) is fix
+
+
+def test_configured_latency_moves_the_fix_earlier() -> None:
+    timing = GnssTiming(0.1, from_utc=False)
+    assert timing.retime(_fix(12.3, 500.0)).timestamp_s == pytest.approx(12.2)
+
+
+def test_utc_timing_removes_the_links_jitter() -> None:
+    """Fixes every 0.1 s of UTC arrive 30..90 ms late (random, seed 7) on a clock 1000 s ahead
+    of UTC: once the fastest delivery was seen, each is timed at UTC + 1000.03 s, less the
+    latency; over midnight the time of day wraps and the times go on."""
+    rng = np.random.default_rng(7)
+    timing = GnssTiming(0.05, from_utc=True)
+    utc = (86400.0 - 2.0 + 0.1 * np.arange(60)) % 86400.0
+    delay = rng.uniform(0.03, 0.09, utc.size)
+    delay[5] = 0.03
+    arrival = 1000.0 + 86400.0 - 2.0 + 0.1 * np.arange(60) + delay
+    out = np.array([timing.retime(_fix(t, u)).timestamp_s for t, u in zip(arrival, utc,
+                                                                          strict=True)])
+    expected = 1000.0 + 86400.0 - 2.0 + 0.1 * np.arange(60) + 0.03 - 0.05
+    np.testing.assert_allclose(out[5:], expected[5:], atol=1e-3)  # 100 ppm creep at most
+    np.testing.assert_allclose(np.diff(out[5:]), 0.1, atol=2e-4)  # UTC steps (+ creep)
+    assert np.all(np.diff(out) > 0.0)
+    assert np.all(out[:5] <= arrival[:5] - 0.05 + 1e-9)  # never later than received
+
+
+def test_aligned_imu_is_passed_through() -> None:
+    s = ImuSample(1.0, 0.1, 0.2, 9.8, 0.01, 0.02, 0.03)
+    assert ImuMount(CarConfig()).apply(s) is s
+
+
+def test_mount_rotation_turns_samples_into_the_vehicle_frame() -> None:
+    """An IMU pitched 4 deg, rolled 1 deg and yawed -0.6 deg reads gravity and a forward
+    acceleration mixed; turned back they are (1.5, 0, 9.81) m/s^2, the yaw rate on z."""
+    car = dataclasses.replace(CarConfig(), imu_roll_rad=math.radians(1.0),
+                              imu_pitch_rad=math.radians(4.0), imu_yaw_rad=math.radians(-0.6))
+    r = mount_rotation(car.imu_roll_rad, car.imu_pitch_rad, car.imu_yaw_rad)
+    accel_imu = r.T @ np.array([1.5, 0.0, 9.81])
+    gyro_imu = r.T @ np.array([0.0, 0.0, 0.3])
+    assert abs(accel_imu[0] - 1.5) > 0.5  # gravity leaks into the IMU's x
+    out = ImuMount(car).apply(ImuSample(2.0, *accel_imu, *gyro_imu))
+    np.testing.assert_allclose([out.accel_x_mps2, out.accel_y_mps2, out.accel_z_mps2],
+                               [1.5, 0.0, 9.81], atol=1e-9)
+    np.testing.assert_allclose([out.gyro_x_radps, out.gyro_y_radps, out.gyro_z_radps],
+                               [0.0, 0.0, 0.3], atol=1e-12)
+    assert out.timestamp_s == 2.0
+
+
+def _ukf(**changes: float) -> UkfLocaliser:
+    cfg = dataclasses.replace(UkfConfig(), **changes)  # type: ignore[arg-type]
+    ukf = UkfLocaliser(cfg, CarConfig())
+    ukf.calibrating = False
+    ukf.reset(PoseEstimate(0.0, 0.0, 0.0, math.pi / 2, 10.0, 0.0, 0.0,
+                           np.diag([1.0, 1.0, 1e-4])))
+    return ukf
+
+
+def test_antenna_lever_arm_in_the_position_update() -> None:
+    """Car at the origin heading north, antenna 1.5 m ahead: a fix at (0, 1.5) agrees with the
+    state (nothing moves); without the lever arm the same fix pulls the car 1.5 m north."""
+    with_arm = _ukf(gnss_antenna_x_m=1.5, gnss_position_sigma_m=0.1)
+    assert with_arm.update_gnss_position(np.array([0.0, 1.5]))
+    assert np.allclose(with_arm.x[:2], 0.0, atol=1e-9)
+    without = _ukf(gnss_position_sigma_m=0.1)
+    assert without.update_gnss_position(np.array([0.0, 1.5]))
+    assert without.x[1] > 1.4
+
+
+def test_wheel_speed_scale() -> None:
+    """Wheels reading 10 m/s with a scale of 1.01: the filter's speed goes to 10.1 m/s."""
+    for scale, expected in ((1.0, 10.0), (1.01, 10.1)):
+        ukf = _ukf(odometry_speed_scale=scale, odometry_yaw_rate_source="none")
+        for _ in range(50):
+            ukf.update_odometry(WheelSpeeds(0.0, 10.0, 10.0, 10.0, 10.0))
+        assert ukf.x[3] == pytest.approx(expected, abs=0.005)
