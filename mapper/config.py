@@ -123,6 +123,9 @@ class UkfConfig:
     odometry_speed_scale: float = 1.0
     """The wheels' speeds are multiplied by this (the true rolling radius over the one the
     wheel speeds were computed with)."""
+    odometry_scale_from_gnss: bool = False
+    """Learn the wheel speed scale from the GNSS speed (:mod:`mapper.wheel_scale`), starting
+    from ``odometry_speed_scale``."""
     odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
     odometry_gate_sigma: float = 5.0
     gnss_position_sigma_m: float = 5.0

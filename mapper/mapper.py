@@ -49,6 +49,7 @@ from mapper.delay_buffer import DelayBuffer
 from mapper.gnss_frame import GnssFrameEstimator
 from mapper.gnss_timing import GnssTiming
 from mapper.imu_mount import ImuMount
+from mapper.wheel_scale import WheelScaleEstimator
 from mapper.map_localiser import MapLocaliser
 from mapper.motion import predict_forward
 from mapper.object_filter import ObjectFilter
@@ -111,6 +112,9 @@ class Mapper:
                                backend=self.backend.name)
         self._mount = ImuMount(car)
         self._gnss_timing = GnssTiming(config.ukf.gnss_latency_s, config.ukf.gnss_time_from_utc)
+        self.wheel_scale = (WheelScaleEstimator(config.ukf.odometry_speed_scale)
+                            if config.ukf.odometry_scale_from_gnss else None)
+        self._last_rear_mps = math.nan
         self.localisation_only = localisation_only
         self.initialised = not localisation_only
         """False until the localisation-only UKF was started at a fix (always True else)."""
@@ -224,6 +228,7 @@ class Mapper:
                 if 0.0 < dt < 1.0:
                     self.odometer_m += abs(r.mean_rear_mps) * dt
             self._last_wheels_s = r.timestamp_s
+            self._last_rear_mps = r.mean_rear_mps
             self.estimator.update_odometry(r, self._steer)
         elif isinstance(r, SteeringAngle):
             self._steer = r
@@ -245,6 +250,9 @@ class Mapper:
 
     def _on_gps(self, fix: GpsFix) -> None:
         cfg = self.config.ukf
+        if self.wheel_scale is not None:
+            self.ukf.wheel_scale = self.wheel_scale.add(fix.timestamp_s, fix.speed_mps,
+                                                     self._last_rear_mps)
         if fix.fix_quality == 0 or not (math.isfinite(fix.lat_deg)
                                         and math.isfinite(fix.lon_deg)):
             self._count("gnss", "rejected_invalid")
