@@ -49,7 +49,6 @@ from mapper.delay_buffer import DelayBuffer
 from mapper.gnss_frame import GnssFrameEstimator
 from mapper.gnss_timing import GnssTiming
 from mapper.imu_mount import ImuMount
-from mapper.wheel_scale import WheelScaleEstimator
 from mapper.map_localiser import MapLocaliser
 from mapper.motion import predict_forward
 from mapper.object_filter import ObjectFilter
@@ -57,6 +56,7 @@ from mapper.slam_backend import SlamBackend
 from mapper.smoother_backend import SmootherBackend
 from mapper.time_smoother import N_COLOURS
 from mapper.ukf_localiser import UkfLocaliser
+from mapper.wheel_scale import WheelScaleEstimator
 
 log = logging.getLogger(__name__)
 
