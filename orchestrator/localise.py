@@ -214,6 +214,9 @@ def _score(track: Track, enu: LocalTangentFrame, truth: list[GroundTruth],
     }
     fix_t = np.array([f.timestamp_s for f in fixes])
     fix_en = np.zeros((0, 2))
+    fix_err_t, fix_err = np.zeros(0), np.zeros(0)
+    s_ref = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref.en_m, axis=0).T))])
+    fix_along, fix_cross = np.zeros(0), np.zeros(0)
     if len(fixes):
         fe, fn, _ = origin.to_enu(np.array([f.lat_deg for f in fixes]),
                                   np.array([f.lon_deg for f in fixes]), origin.alt0_m)
@@ -224,7 +227,10 @@ def _score(track: Track, enu: LocalTangentFrame, truth: list[GroundTruth],
         at = ref.at(fix_t[ok])
         dc_raw = np.degrees(raw.course_rad[ok] - at.course_rad)
         dc_raw = np.mod(dc_raw + 180.0, 360.0) - 180.0
-        te, de, _ = errors(est, Track(fix_t[ok], at.en_m, at.course_rad))
+        _, de, _ = errors(est, Track(fix_t[ok], at.en_m, at.course_rad))
+        fix_err_t, fix_err = fix_t[ok], np.hypot(*(fix_en[ok] - at.en_m).T)
+        fix_along = np.interp(fix_err_t, ref.t_s, s_ref)
+        fix_cross = _left_of(fix_en[ok] - at.en_m, at.course_rad)
         out.update({
             "gnss_fixes_scored": int(np.count_nonzero(ok)),
             "gnss_raw_rmse_m": round(rms(fix_en[ok] - at.en_m), 4),
@@ -249,5 +255,13 @@ def _score(track: Track, enu: LocalTangentFrame, truth: list[GroundTruth],
                      t_s=t - start_s, error_m=np.hypot(*d.T), course_error_deg=dc,
                      outage_s=None if outage is None else (outage[0] - start_s,
                                                            outage[1] - start_s),
-                     fix_t_s=fix_t - start_s)
+                     fix_t_s=fix_err_t - start_s, fix_error_m=fix_err,
+                     along_m=np.interp(t, ref.t_s, s_ref),
+                     cross_m=_left_of(d, ref.at(t).course_rad),
+                     fix_along_m=fix_along, fix_cross_m=fix_cross)
     return out
+
+
+def _left_of(d_en_m: np.ndarray, course_rad: np.ndarray) -> np.ndarray:
+    """The component (N,) of offsets (N, 2) to the left of the direction of travel (m)."""
+    return np.asarray(-d_en_m[:, 0] * np.sin(course_rad) + d_en_m[:, 1] * np.cos(course_rad))

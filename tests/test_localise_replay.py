@@ -68,9 +68,34 @@ def test_summary_scores(replayed: Path) -> None:
     outage = summary["gnss_outage"]
     assert outage["end_s"] - outage["start_s"] == pytest.approx(10.0)
     assert outage["travel_m"] > 100.0  # ~17 m/s
-    assert 0.0 < outage["max_error_m"] < 10.0
+    assert outage["max_error_m"] > 0.0
     # no fix reached the filter inside the outage: GNSS updates stop for 10 s
     gnss = summary["mapper_stats"]["gnss_position"]
     assert gnss["applied"] < 600 - 90
     assert (replayed / "localisation_map.png").stat().st_size > 10_000
     assert (replayed / "localisation_error.png").stat().st_size > 10_000
+
+
+@pytest.fixture(scope="module")
+def full_summary(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
+    folder = tmp_path_factory.mktemp("localise_full")
+    recording = folder / "seg40.mcap"
+    import_log("comma2k19", shared_data(*SEGMENT), recording)
+    assert cli(["replay", str(recording), "--out", str(folder / "out")]) == 0
+    return json.loads((folder / "out" / "summary.json").read_text())  # type: ignore[no-any-return]
+
+
+def test_beats_the_receiver_on_the_real_drive(full_summary: dict[str, object]) -> None:
+    """Issue 17's acceptance on comma's pose: better than the raw u-blox even with its latency
+    removed (0.55 m), course within 0.30 deg; the filter's covariance not overconfident by more
+    than a factor of 2 in variance (NEES mean, 2 dof)."""
+    assert full_summary["position_rmse_m"] <= 0.45  # type: ignore[operator]
+    assert full_summary["heading_rmse_deg"] <= 0.30  # type: ignore[operator]
+    assert full_summary["gnss_raw_rmse_m"] > 1.0  # type: ignore[operator]
+    assert full_summary["nees_position_mean"] < 4.0  # type: ignore[operator]
+
+
+def test_dead_reckoning_through_the_outage(replayed: Path) -> None:
+    """Ten seconds (~170 m) without GNSS on IMU and wheels: within 2 m of comma's pose."""
+    summary = json.loads((replayed / "summary.json").read_text())
+    assert summary["gnss_outage"]["max_error_m"] <= 2.0
