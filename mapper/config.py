@@ -132,6 +132,13 @@ class UkfConfig:
     """GNSS position noise (m), above the receiver's 2.5 m white noise: its wandering bias and
     the error of the estimated world frame are not in the model."""
     gnss_position_gate_sigma: float = 4.0
+    gnss_sigma_from_receiver: bool = True
+    """A fix with the receiver's own accuracy (NMEA GST: ``GpsFix.lat_sigma_m``,
+    ``lon_sigma_m``) is fused with it, times ``gnss_receiver_sigma_scale`` and floored at
+    ``gnss_receiver_sigma_floor_m``, instead of ``gnss_position_sigma_m``. (The simulated
+    receiver sends no GST.)"""
+    gnss_receiver_sigma_scale: float = 1.0
+    gnss_receiver_sigma_floor_m: float = 0.05
     gnss_latency_s: float = 0.0
     """The receiver's latency (s): a fix was measured this long before its time stamp (with
     ``gnss_time_from_utc``, before its UTC time on the receiving clock), and is applied there."""

@@ -1,4 +1,5 @@
-"""A parsed GNSS fix back to the NMEA sentences a receiver sends for it (RMC and GGA).
+"""A parsed GNSS fix back to the NMEA sentences a receiver sends for it (RMC, GGA, and GST
+when the fix carries the receiver's accuracy).
 
 For importing foreign logs whose receiver was recorded as parsed fixes: the recording then holds
 the bytes our :class:`sensors.nmea.NmeaParser` reads on the car. Fields the fix does not carry
@@ -27,8 +28,9 @@ def _coord(value_deg: float, degree_digits: int, pos: str, neg: str) -> tuple[st
 
 
 def fix_sentences(fix: GpsFix, utc_day_s: float, talker: str = "GN") -> list[bytes]:
-    """RMC then GGA (u-blox order) for ``fix``; ``utc_day_s`` is the UTC time (s since 1970)
-    of midnight of the fix's day (``fix.utc_time_s`` is the time of day), for the RMC date."""
+    """RMC, GGA (u-blox order), and GST when ``fix`` has ``lat_sigma_m`` and ``lon_sigma_m``;
+    ``utc_day_s`` is the UTC time (s since 1970) of midnight of the fix's day
+    (``fix.utc_time_s`` is the time of day), for the RMC date."""
     if not math.isfinite(fix.utc_time_s):
         raise ValueError("a fix without its UTC time cannot be written as NMEA")
     stamp = dt.datetime.fromtimestamp(round(utc_day_s + fix.utc_time_s, 2), tz=dt.UTC)
@@ -47,4 +49,10 @@ def fix_sentences(fix: GpsFix, utc_day_s: float, talker: str = "GN") -> list[byt
     mode = "A" if quality > 0 else "N"
     rmc = (f"{talker}RMC,{hms},{status},{lat},{ns},{lon},{ew},{knots},{course},"
            f"{stamp:%d%m%y},,,{mode}")
-    return [with_checksum(rmc), with_checksum(gga)]
+    out = [with_checksum(rmc), with_checksum(gga)]
+    if math.isfinite(fix.lat_sigma_m) and math.isfinite(fix.lon_sigma_m):
+        major = max(fix.lat_sigma_m, fix.lon_sigma_m)
+        minor = min(fix.lat_sigma_m, fix.lon_sigma_m)
+        out.append(with_checksum(f"{talker}GST,{hms},,{major:.3f},{minor:.3f},0.0,"
+                                 f"{fix.lat_sigma_m:.3f},{fix.lon_sigma_m:.3f},"))
+    return out

@@ -123,3 +123,35 @@ def test_wheel_scale_learnt_from_steady_gnss_speeds() -> None:
         t += 0.1
         est.add(t, 1.009 * 17.0 + rng.normal(0.0, 0.05), 17.0)
     assert est.scale == pytest.approx(1.009, abs=0.0005)  # 0.05 / 17 / sqrt(400) = 1.5e-4
+
+
+def test_receiver_accuracy_from_gst_sets_the_gnss_noise() -> None:
+    """A fix written with the receiver's GST sigmas parses back with them; the UKF then fuses
+    it with that covariance (in a world frame turned 90 deg from ENU: east noise on world y),
+    and without them with the configured sigma."""
+    from mapper.ukf_gnss import receiver_covariance
+    from sensors.nmea import NmeaParser
+    from sensors.nmea_encode import fix_sentences
+
+    parser = NmeaParser(require_checksum=True)
+    fixes: list[GpsFix] = []
+    for k in range(3):
+        fix = GpsFix(10.0 + 0.1 * k, 37.7, -122.4, 30.0, speed_mps=10.0, course_rad=0.5,
+                     utc_time_s=1000.0 + 0.1 * k, lat_sigma_m=0.4, lon_sigma_m=0.3)
+        for sentence in fix_sentences(fix, 17000.0 * 86400.0):
+            fixes += parser.feed(fix.timestamp_s, sentence)
+    fixes += parser.flush()
+    assert parser.counts["GST"] == 3 and not parser.rejects
+    assert (fixes[-1].lat_sigma_m, fixes[-1].lon_sigma_m) == (0.4, 0.3)
+    cfg = UkfConfig()
+    cov = receiver_covariance(cfg, fixes[-1], math.pi / 2)
+    assert cov is not None
+    np.testing.assert_allclose(cov, np.diag([0.4**2, 0.3**2]), atol=1e-12)
+    assert receiver_covariance(cfg, GpsFix(0.0, 37.7, -122.4), 0.0) is None
+    off = dataclasses.replace(cfg, gnss_sigma_from_receiver=False)
+    assert receiver_covariance(off, fixes[-1], 0.0) is None
+    # 1 m prior, a fix 1 m off: a 0.3 m receiver sigma moves the state ~0.9 m, 5 m ~0.04 m
+    for cov_fix, expected in ((np.diag([0.09, 0.09]), 0.917), (None, 1.0 / 26.0)):
+        ukf = _ukf()
+        ukf.update_gnss_position(np.array([1.0, 0.0]), cov_fix)
+        assert ukf.x[0] == pytest.approx(expected, abs=0.01)
