@@ -172,3 +172,10 @@ def test_cli_bad_outage_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixtur
     code = cli(["import", "comma2k19", str(tmp_path), "--out", str(tmp_path / "x.mcap")])
     assert code == 2
     assert "not a segment folder" in capsys.readouterr().err
+
+
+def test_unknown_format_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = cli(["import", "rosbag9", str(tmp_path), "--out", str(tmp_path / "x.mcap")])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown log format 'rosbag9'" in err[0] and "comma2k19" in err[0]

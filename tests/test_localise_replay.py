@@ -99,3 +99,12 @@ def test_dead_reckoning_through_the_outage(replayed: Path) -> None:
     """Ten seconds (~170 m) without GNSS on IMU and wheels: within 2 m of comma's pose."""
     summary = json.loads((replayed / "summary.json").read_text())
     assert summary["gnss_outage"]["max_error_m"] <= 2.0
+
+
+def test_no_gnss_at_all_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Every fix dropped: the localisation cannot start (no fix to start at): one line."""
+    recording = tmp_path / "blind.mcap"
+    import_log("comma2k19", shared_data(*SEGMENT), recording, GnssOutage(0.0, 100.0))
+    assert cli(["replay", str(recording), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "never started" in err[0]
