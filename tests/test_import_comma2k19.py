@@ -105,7 +105,7 @@ def test_imu_in_the_vehicle_frame_si_units(imported: dict[str, list[tuple[float,
     gyro = np.array([[s.gyro_x_radps, s.gyro_y_radps, s.gyro_z_radps] for s in samples])
     # gravity up (+z) in m/s^2; the device frame had z down
     assert 9.3 < float(np.mean(acc[:, 2])) < 10.1
-    src_gyro = _source("processed_log/IMU/gyro/value")
+    src_gyro = _source("processed_log/IMU/gyro_uncalibrated/value")
     np.testing.assert_allclose(gyro[:, 2], -src_gyro[:, 2], atol=1e-6)  # z down -> z up, rad/s
     np.testing.assert_allclose(gyro[:, 0], src_gyro[:, 0], atol=1e-6)
 

@@ -4,8 +4,10 @@ fused pose as the reference.
 A segment folder holds numpy arrays saved without the ``.npy`` suffix, each channel a folder
 with ``t`` (s of the device's boot time, the log's time base kept here) and ``value``:
 
-- ``processed_log/IMU/accelerometer``, ``gyro`` (N, 3): the device frame (x forward, y right,
-  z down; specific force, about (0, 0, -9.81) at rest), 100 Hz;
+- ``processed_log/IMU/accelerometer``, ``gyro_uncalibrated`` (N, 3): the device frame (x
+  forward, y right, z down; specific force, about (0, 0, -9.81) at rest), 100 Hz. The raw gyro
+  is imported, as an IMU sends it (its z bias here is 0.07 rad/s): the UKF's bias states learn
+  it (``gyro`` is the same less the phone's own bias estimate);
 - ``processed_log/GNSS/live_gnss_ublox`` (N, 6): latitude deg, longitude deg, speed m/s, UTC
   time ms, altitude m, bearing deg (clockwise from north), 10 Hz, stamped on arrival;
 - ``processed_log/CAN/wheel_speed`` (N, 4) m/s (front left, front right, rear left, rear right)
@@ -57,6 +59,9 @@ m RMS, 0.06 s: 0.41 m, 0.08 s: 0.54 m): a property of the receiver, as a datashe
 GNSS_POSITION_SIGMA_M = 2.0
 """The fixes' noise for the UKF (m): their error is about 0.4 m RMS but correlated over
 seconds; 2 m keeps the position NEES near its 2 degrees of freedom on this segment."""
+GYRO_BIAS_SIGMA_RADPS = 0.1
+"""The raw gyro's bias before the filter learns it (rad/s): a phone-grade MEMS gyro's turn-on
+bias reaches several degrees per second."""
 STEER_RATIO = 16.88
 """Steering-wheel angle over road-wheel angle of the 2017-2018 RAV4 (openpilot's value)."""
 
@@ -82,7 +87,7 @@ RAV4_CAR: dict[str, Any] = {
 
 _CHANNELS = {
     "accel": "processed_log/IMU/accelerometer",
-    "gyro": "processed_log/IMU/gyro",
+    "gyro": "processed_log/IMU/gyro_uncalibrated",
     "gnss": "processed_log/GNSS/live_gnss_ublox",
     "wheels": "processed_log/CAN/wheel_speed",
     "steering": "processed_log/CAN/steering_angle",
@@ -128,7 +133,7 @@ def load(segment: Path) -> ImportedLog:
     # Device frame (x forward, y right, z down) to ours (x forward, y left, z up).
     flip = np.array([1.0, -1.0, -1.0])
     acc_v, gyr_v = acc * flip, gyr * flip
-    rpy = _imu_mount(t_acc, acc_v, gyr_v, t_ws, ws)
+    rpy = _imu_mount(t_acc, acc_v, gyr_v, t_ws, ws, _course_rate(t_gnss, gnss))
     scale = _wheel_scale(t_gnss, gnss, t_ws, ws)
 
     readings: list[ImportedReading] = []
@@ -157,6 +162,7 @@ def load(segment: Path) -> ImportedLog:
                 "imu_yaw_rad": rpy[2]},
         "mapper": {"ukf": {
             "gnss_antenna_x_m": DEVICE_X_M,
+            "initial_gyro_bias_sigma_radps": GYRO_BIAS_SIGMA_RADPS,
             "gnss_time_from_utc": True,
             "gnss_latency_s": GNSS_LATENCY_S,
             "gnss_position_sigma_m": GNSS_POSITION_SIGMA_M,
@@ -206,14 +212,24 @@ def _truth(segment: Path) -> tuple[list[GroundTruth], tuple[float, float, float]
     return truth, (lat0, lon0, alt0)
 
 
+def _course_rate(t_gnss: FloatArray, gnss: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(times, yaw rate rad/s CCW) from the receiver's bearings, smoothed over 1 s (10 fixes)."""
+    course = np.unwrap(np.radians(-gnss[:, 5]))
+    rate = np.gradient(course, t_gnss)
+    k = min(10, len(rate))
+    return t_gnss, np.convolve(rate, np.ones(k) / k, mode="same")
+
+
 def _imu_mount(t_imu: FloatArray, acc: FloatArray, gyr: FloatArray, t_ws: FloatArray,
-               ws: FloatArray) -> tuple[float, float, float]:
+               ws: FloatArray, course_rate: tuple[FloatArray, FloatArray]
+               ) -> tuple[float, float, float]:
     """The IMU's roll, pitch, yaw (rad) against the car (vehicle frame, z up), from the log.
 
     Roll and pitch turn the mean specific force, less the wheels' mean longitudinal
     acceleration, onto +z. Yaw: least squares of the levelled horizontal specific force against
-    the wheels' acceleration a_x and the centripetal ``v w`` (the car's own a_y): with the IMU
-    turned by psi, it reads ``(a_x + psi a_y, a_y - psi a_x)``.
+    the wheels' acceleration a_x and the centripetal ``v w`` (the car's own a_y; ``w`` the gyro
+    less its mean offset from the receiver's course rate ``course_rate``, times and rad/s): with
+    the IMU turned by psi, it reads ``(a_x + psi a_y, a_y - psi a_x)``.
     """
     v = np.interp(t_imu, t_ws, ws.mean(axis=1))
     a_long = np.gradient(v, t_imu)
@@ -225,7 +241,9 @@ def _imu_mount(t_imu: FloatArray, acc: FloatArray, gyr: FloatArray, t_ws: FloatA
     roll = math.atan2(float(mean[1]), float(mean[2]))
     pitch = math.atan2(-float(mean[0]), math.hypot(float(mean[1]), float(mean[2])))
     level = mount_rotation(roll, pitch, 0.0) @ acc.T  # vehicle axes, less the yaw
-    a_lat = v * gyr[:, 2]
+    # The gyro's z bias (the raw gyro: 0.07 rad/s here) against the receiver's course rate.
+    gz = gyr[:, 2] - float(np.mean(gyr[:, 2] - np.interp(t_imu, *course_rate)))
+    a_lat = v * gz
     ax = np.convolve(level[0], kernel, mode="same")
     ay = np.convolve(level[1], kernel, mode="same")
     a_lat_s = np.convolve(a_lat, kernel, mode="same")
