@@ -11,15 +11,14 @@ become the bytes our receivers produce on the car, on the raw topics a replay pa
 The reference poses go on ``/truth/pose`` (:class:`common.messages.GroundTruth` in the ENU frame
 given in the metadata), and the car's configuration (the defaults with the importer's
 overrides) into the ``fsd`` metadata as ``config_toml``, where a replay takes it from.
-``drop_gnss`` (start s after the log's first reading, duration s) leaves the fixes of that
-window out: a GNSS outage.
+``drop_gnss`` (start s after the log's first reading, duration s) has the importer leave the
+fixes of that window out, and out of its calibrations: a GNSS outage.
 """
 
 from __future__ import annotations
 
 import logging
 from collections import Counter
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +26,7 @@ from common.config import apply_overrides, config_to_toml
 from common.errors import ConfigError, RecordingError
 from common.messages import GpsFix, ImuSample, RawBytes, SteeringAngle, WheelSpeeds
 from orchestrator.config import AppConfig
-from recordings.importers import IMPORTERS, ImportedLog
+from recordings.importers import IMPORTERS, GnssOutage, ImportedLog
 from recordings.recorder import Recorder
 from recordings.topics import TRUTH_POSE
 from sensors.can_codec import CanCodec
@@ -35,14 +34,6 @@ from sensors.imu_protocol import encode_imu_packet
 from sensors.nmea_encode import fix_sentences
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True, slots=True)
-class GnssOutage:
-    """A window without GNSS: ``start_s`` after the log's first reading, ``duration_s`` long."""
-
-    start_s: float
-    duration_s: float
 
 
 def parse_outage(text: str) -> GnssOutage:
@@ -66,20 +57,17 @@ def import_log(fmt: str, source: Path, out: Path,
         raise RecordingError(f"unknown log format {fmt!r} (known: {', '.join(sorted(IMPORTERS))})")
     if not source.exists():
         raise RecordingError(f"{source}: no such file or folder")
-    imported = importer(source)
-    return write_recording(imported, out, drop_gnss)
+    imported = importer(source, drop_gnss)
+    return write_recording(imported, out)
 
 
-def write_recording(imported: ImportedLog, out: Path,
-                    drop_gnss: GnssOutage | None = None) -> dict[str, Any]:
+def write_recording(imported: ImportedLog, out: Path) -> dict[str, Any]:
     """Write an :class:`ImportedLog` as a recording (see the module docstring)."""
     if not imported.readings:
         raise RecordingError(f"{imported.name}: nothing to import")
     config = apply_overrides(AppConfig(), imported.config, f"{imported.name} (importer)")
     t0 = imported.start_s
-    window = None
-    if drop_gnss is not None:
-        window = (t0 + drop_gnss.start_s, t0 + drop_gnss.start_s + drop_gnss.duration_s)
+    window = imported.gnss_outage_s
     metadata = dict(imported.metadata)
     metadata.update({"track": "", "log": imported.name, "config_toml": config_to_toml(config),
                      "start_s": repr(t0)})
@@ -87,13 +75,12 @@ def write_recording(imported: ImportedLog, out: Path,
         metadata["gnss_outage_s"] = f"{window[0]!r}:{window[1]!r}"
     codec = CanCodec(config.sensors.can.dbc or None)
     counts: Counter[str] = Counter()
+    if window is not None:
+        counts["gnss_dropped"] = imported.gnss_dropped
     with Recorder(out, config.recording, config.car, metadata=metadata, blocking=True) as rec:
         for r in imported.readings:
             t = r.timestamp_s
             if isinstance(r, GpsFix):
-                if window is not None and window[0] <= t < window[1]:
-                    counts["gnss_dropped"] += 1
-                    continue
                 for sentence in fix_sentences(r, imported.gnss_utc_day_s):
                     rec.write_raw(RawBytes(t, "gps", sentence))
                 rec.write_gps_fix(r)

@@ -102,9 +102,9 @@ def test_dead_reckoning_through_the_outage(replayed: Path) -> None:
 
 
 def test_no_gnss_at_all_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Every fix dropped: the localisation cannot start (no fix to start at): one line."""
-    recording = tmp_path / "blind.mcap"
-    import_log("comma2k19", shared_data(*SEGMENT), recording, GnssOutage(0.0, 100.0))
-    assert cli(["replay", str(recording), "--out", str(tmp_path / "out")]) == 2
+    """Every fix dropped: nothing to localise with; the import says so in one line."""
+    code = cli(["import", "comma2k19", str(shared_data(*SEGMENT)), "--out",
+                str(tmp_path / "blind.mcap"), "--drop-gnss", "0:100"])
+    assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "never started" in err[0]
+    assert len(err) == 1 and "leaves no fix" in err[0]

@@ -1,6 +1,6 @@
 """Importers of foreign vehicle logs: each reads one format into an :class:`ImportedLog`.
 
-A format is a function ``load(source_dir) -> ImportedLog`` registered by name in
+A format is a function ``load(source_dir, drop_gnss) -> ImportedLog`` registered by name in
 :data:`IMPORTERS`; ``python main.py import NAME SOURCE --out X.mcap`` writes what it returns as a
 recording (the wire bytes are made by the orchestrator, which may use the sensors' encoders).
 To add a format, write ``recordings/importers/<name>.py`` with a ``load`` and add it here.
@@ -12,13 +12,14 @@ from collections.abc import Callable
 from pathlib import Path
 
 from recordings.importers import comma2k19
-from recordings.importers.base import ImportedLog
+from recordings.importers.base import GnssOutage, ImportedLog
 
-Importer = Callable[[Path], ImportedLog]
+Importer = Callable[[Path, GnssOutage | None], ImportedLog]
+"""``load(source, drop_gnss)``: ``drop_gnss`` an outage to leave out (or None)."""
 
 #: Importer of each format, by the name the ``import`` command takes.
 IMPORTERS: dict[str, Importer] = {
     "comma2k19": comma2k19.load,
 }
 
-__all__ = ["IMPORTERS", "ImportedLog", "Importer"]
+__all__ = ["IMPORTERS", "GnssOutage", "ImportedLog", "Importer"]

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from common.conventions import mount_rotation
 from common.errors import RecordingError
 from common.messages import GpsFix, GroundTruth, ImuSample, SteeringAngle, WheelSpeeds
-from recordings.importers.base import ImportedLog, ImportedReading
+from recordings.importers.base import GnssOutage, ImportedLog, ImportedReading
 
 log = logging.getLogger(__name__)
 
@@ -117,8 +117,9 @@ def _channel(root: Path, name: str, columns: int | None) -> tuple[FloatArray, Fl
     return t[order], v[order]
 
 
-def load(segment: Path) -> ImportedLog:
-    """Read a comma2k19 segment folder (see the module docstring)."""
+def load(segment: Path, drop_gnss: GnssOutage | None = None) -> ImportedLog:
+    """Read a comma2k19 segment folder (see the module docstring); ``drop_gnss``: leave out the
+    fixes of that window (from the readings and from the calibrations)."""
     segment = Path(segment)
     if not (segment / "processed_log").is_dir() or not (segment / "global_pose").is_dir():
         raise RecordingError(f"comma2k19: {segment} is not a segment folder (no processed_log/ "
@@ -130,6 +131,15 @@ def load(segment: Path) -> ImportedLog:
     t_st, steer = _channel(segment, _CHANNELS["steering"], None)
     if len(t_acc) != len(t_gyr) or np.max(np.abs(t_acc - t_gyr)) > 1e-6:
         raise RecordingError("comma2k19: accelerometer and gyro samples are not paired")
+    window = None
+    dropped = 0
+    if drop_gnss is not None:
+        window = drop_gnss.window(float(min(t_acc[0], t_gnss[0], t_ws[0], t_st[0])))
+        keep = (t_gnss < window[0]) | (t_gnss >= window[1])
+        dropped = int(np.count_nonzero(~keep))
+        t_gnss, gnss = t_gnss[keep], gnss[keep]
+        if len(t_gnss) == 0:
+            raise RecordingError(f"comma2k19: --drop-gnss leaves no fix in {segment}")
     # Device frame (x forward, y right, z down) to ours (x forward, y left, z up).
     flip = np.array([1.0, -1.0, -1.0])
     acc_v, gyr_v = acc * flip, gyr * flip
@@ -179,6 +189,8 @@ def load(segment: Path) -> ImportedLog:
         truth=truth,
         truth_origin=origin,
         gnss_utc_day_s=day_s,
+        gnss_outage_s=window,
+        gnss_dropped=dropped,
         config=config,
         metadata={"source": "comma2k19", "segment": segment.name,
                   "reference": "comma global_pose (fused INS/GNSS/vision) of the device",
