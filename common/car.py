@@ -37,5 +37,11 @@ class CarConfig:
     """LiDAR position ahead of the vehicle origin (m): seed 000 mounts it low at the front."""
     lidar_z_m: float = 0.3
     imu_x_m: float = 0.7
+    imu_roll_rad: float = 0.0
+    imu_pitch_rad: float = 0.0
+    imu_yaw_rad: float = 0.0
+    """The IMU's mounting rotation against the vehicle frame (rad; about x, then y, then z:
+    ``common.conventions.mount_rotation``); the Mapper turns its samples into the vehicle frame.
+    All zero (the default): mounted aligned, samples taken as they are."""
     camera_x_m: float = 0.9
     camera_z_m: float = 1.0

@@ -164,3 +164,16 @@ class WorldFrame:
     def world_yaw_to_enu_yaw(self, yaw_rad: float) -> float:
         """A world yaw to a heading in ENU (CCW from east)."""
         return wrap_angle(yaw_rad + self.start_yaw_enu_rad)
+
+
+def mount_rotation(roll_rad: float, pitch_rad: float, yaw_rad: float) -> NDArray[np.float64]:
+    """The rotation (3, 3) taking a sensor's axes to the vehicle's for a sensor mounted turned
+    by roll, pitch, yaw (rad; about x, then y, then z of the vehicle frame, z up):
+    ``R_z(yaw) R_y(pitch) R_x(roll)``; ``v_vehicle = R @ v_sensor``."""
+    cr, sr = math.cos(roll_rad), math.sin(roll_rad)
+    cp, sp = math.cos(pitch_rad), math.sin(pitch_rad)
+    cy, sy = math.cos(yaw_rad), math.sin(yaw_rad)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    return np.asarray(rz @ ry @ rx, np.float64)

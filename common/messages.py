@@ -143,6 +143,10 @@ class GpsFix:
     speed_mps: float = math.nan
     course_rad: float = math.nan
     utc_time_s: float = math.nan
+    lat_sigma_m: float = math.nan
+    lon_sigma_m: float = math.nan
+    """The receiver's own 1-sigma errors of latitude and longitude (m; NMEA GST), NaN (or 0,
+    from a recording made before they existed) when it does not say."""
 
 
 @dataclass(frozen=True, slots=True)

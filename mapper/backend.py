@@ -27,6 +27,7 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
+from mapper import ukf_gnss
 from mapper.motion import compensate_motion
 from mapper.ukf_localiser import UkfLocaliser
 
@@ -120,7 +121,8 @@ class UkfInputs:
         self.ukf.update_odometry(wheels, steer)
 
     def update_gnss(self, xy_world_m: FloatArray, fix: GpsFix, frame: WorldFrame) -> None:
-        self.ukf.update_gnss_position(xy_world_m)
+        cov = ukf_gnss.receiver_covariance(self.ukf.config, fix, frame.start_yaw_enu_rad)
+        self.ukf.update_gnss_position(xy_world_m, cov)
         course = (frame.enu_yaw_to_world_yaw(fix.course_rad)
                   if math.isfinite(fix.course_rad) else math.nan)
         self.ukf.update_gnss_velocity(fix.speed_mps, course)

@@ -120,12 +120,32 @@ class UkfConfig:
     """Relative tyre-radius uncertainty (a radius measured to 1 mm): a systematic speed error,
     spread on the position as a random walk over ``odometry_scale_time_s``."""
     odometry_scale_time_s: float = 10.0
+    odometry_speed_scale: float = 1.0
+    """The wheels' speeds are multiplied by this (the true rolling radius over the one the
+    wheel speeds were computed with)."""
+    odometry_scale_from_gnss: bool = False
+    """Learn the wheel speed scale from the GNSS speed (:mod:`mapper.wheel_scale`), starting
+    from ``odometry_speed_scale``."""
     odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
     odometry_gate_sigma: float = 5.0
     gnss_position_sigma_m: float = 5.0
     """GNSS position noise (m), above the receiver's 2.5 m white noise: its wandering bias and
     the error of the estimated world frame are not in the model."""
     gnss_position_gate_sigma: float = 4.0
+    gnss_sigma_from_receiver: bool = True
+    """A fix with the receiver's own accuracy (NMEA GST: ``GpsFix.lat_sigma_m``,
+    ``lon_sigma_m``) is fused with it, times ``gnss_receiver_sigma_scale`` and floored at
+    ``gnss_receiver_sigma_floor_m``, instead of ``gnss_position_sigma_m``. (The simulated
+    receiver sends no GST.)"""
+    gnss_receiver_sigma_scale: float = 1.0
+    gnss_receiver_sigma_floor_m: float = 0.05
+    gnss_latency_s: float = 0.0
+    """The receiver's latency (s): a fix was measured this long before its time stamp (with
+    ``gnss_time_from_utc``, before its UTC time on the receiving clock), and is applied there."""
+    gnss_time_from_utc: bool = False
+    """Time a fix by its UTC time of day, put on the receiving clock by the smallest
+    (receive - UTC) offset seen so far (the arrival jitter of the serial link removed), instead
+    of its receive time."""
     gnss_speed_sigma_mps: float = 0.1
     gnss_min_speed_mps: float = 1.0
     """Seed 001: GNSS velocity and track are fused only above this speed."""

@@ -47,6 +47,8 @@ from mapper.backend import Estimator, MappingBackend
 from mapper.config import MapperConfig
 from mapper.delay_buffer import DelayBuffer
 from mapper.gnss_frame import GnssFrameEstimator
+from mapper.gnss_timing import GnssTiming
+from mapper.imu_mount import ImuMount
 from mapper.map_localiser import MapLocaliser
 from mapper.motion import predict_forward
 from mapper.object_filter import ObjectFilter
@@ -54,6 +56,7 @@ from mapper.slam_backend import SlamBackend
 from mapper.smoother_backend import SmootherBackend
 from mapper.time_smoother import N_COLOURS
 from mapper.ukf_localiser import UkfLocaliser
+from mapper.wheel_scale import WheelScaleEstimator
 
 log = logging.getLogger(__name__)
 
@@ -76,9 +79,13 @@ class Mapper:
     """
 
     def __init__(self, config: MapperConfig, car: CarConfig,
-                 start_heading_enu_rad: float | None = None) -> None:
+                 start_heading_enu_rad: float | None = None,
+                 localisation_only: bool = False) -> None:
         """``start_heading_enu_rad``: the world frame's heading in ENU (rad) when it is known
-        (the mission's; None: estimated from the GNSS course)."""
+        (the mission's; None: estimated from the GNSS course). ``localisation_only``: no cones
+        to map (a road drive): the UKF localises from the start on an empty map, in the ENU
+        frame of the first fix (the world frame), started at the first fix with a course
+        (:attr:`initialised`)."""
         self.config = config
         self.car = car
         self.start_heading_enu_rad = start_heading_enu_rad
@@ -103,6 +110,17 @@ class Mapper:
         self._counts: dict[str, Counter[str]] = {}
         self._state = MapState(0.0, PoseEstimate(0.0, 0.0, 0.0, 0.0), ConeMap.empty(),
                                backend=self.backend.name)
+        self._mount = ImuMount(car)
+        self._gnss_timing = GnssTiming(config.ukf.gnss_latency_s, config.ukf.gnss_time_from_utc)
+        self.wheel_scale = (WheelScaleEstimator(config.ukf.odometry_speed_scale)
+                            if config.ukf.odometry_scale_from_gnss else None)
+        self._last_rear_mps = math.nan
+        self.localisation_only = localisation_only
+        self.initialised = not localisation_only
+        """False until the localisation-only UKF was started at a fix (always True else)."""
+        if localisation_only:
+            self.localiser = MapLocaliser(self.ukf, ConeMap.empty(),
+                                          config.fusion.colour_gate_m)
 
     @property
     def map_frozen(self) -> bool:
@@ -125,6 +143,10 @@ class Mapper:
             if not math.isfinite(r.timestamp_s):
                 self._count(stream, "rejected_bad_time")
                 continue
+            if isinstance(r, ImuSample):
+                r = self._mount.apply(r)
+            elif isinstance(r, GpsFix):
+                r = self._gnss_timing.retime(r)
             if self.buffer.push(stream, r, now_s) and isinstance(r, ImuSample):
                 self._recent_imu.append(r)
         for stream, r in self.buffer.pop_ready(now_s):
@@ -206,6 +228,7 @@ class Mapper:
                 if 0.0 < dt < 1.0:
                     self.odometer_m += abs(r.mean_rear_mps) * dt
             self._last_wheels_s = r.timestamp_s
+            self._last_rear_mps = r.mean_rear_mps
             self.estimator.update_odometry(r, self._steer)
         elif isinstance(r, SteeringAngle):
             self._steer = r
@@ -227,9 +250,15 @@ class Mapper:
 
     def _on_gps(self, fix: GpsFix) -> None:
         cfg = self.config.ukf
+        if self.wheel_scale is not None:
+            self.ukf.wheel_scale = self.wheel_scale.add(fix.timestamp_s, fix.speed_mps,
+                                                     self._last_rear_mps)
         if fix.fix_quality == 0 or not (math.isfinite(fix.lat_deg)
                                         and math.isfinite(fix.lon_deg)):
             self._count("gnss", "rejected_invalid")
+            return
+        if self.localisation_only:
+            self._on_gps_localising(fix)
             return
         if self._enu is None:
             alt = fix.altitude_m if math.isfinite(fix.altitude_m) else 0.0
@@ -266,6 +295,38 @@ class Mapper:
         assert self.world_frame is not None
         xy = self.world_frame.enu_to_world(east, north).reshape(2)
         self.estimator.update_gnss(xy, fix, self.world_frame)
+
+    def _on_gps_localising(self, fix: GpsFix) -> None:
+        """Localisation only: the world frame is the ENU frame of the first fix; the UKF starts
+        at the first fix with a course (above ``gnss_min_speed_mps``), the antenna
+        ``gnss_antenna_x_m`` ahead of the rear axle along the course."""
+        cfg = self.config.ukf
+        if self._enu is None:
+            alt = fix.altitude_m if math.isfinite(fix.altitude_m) else 0.0
+            self._enu = LocalTangentFrame(fix.lat_deg, fix.lon_deg, alt)
+            self.world_frame = WorldFrame(self._enu)
+        assert self.world_frame is not None
+        e, n, _ = self._enu.to_enu(fix.lat_deg, fix.lon_deg, self._enu.alt0_m)
+        xy = np.array([float(e), float(n)])
+        if self.initialised:
+            self.estimator.update_gnss(xy, fix, self.world_frame)
+            return
+        if not (math.isfinite(fix.course_rad) and math.isfinite(fix.speed_mps)
+                and fix.speed_mps >= cfg.gnss_min_speed_mps):
+            self._count("gnss", "waiting_for_course")
+            return
+        yaw = fix.course_rad
+        a = cfg.gnss_antenna_x_m
+        sigma_yaw = max(cfg.gnss_speed_sigma_mps / fix.speed_mps, cfg.gnss_track_sigma_floor_rad)
+        cov = np.diag([cfg.gnss_position_sigma_m**2, cfg.gnss_position_sigma_m**2,
+                       sigma_yaw**2])
+        self.ukf.reset(PoseEstimate(fix.timestamp_s, float(xy[0]) - a * math.cos(yaw),
+                                    float(xy[1]) - a * math.sin(yaw), yaw, fix.speed_mps,
+                                    0.0, 0.0, cov))
+        self.initialised = True
+        self._count("gnss", "started")
+        log.info("localisation started at %.3f s: E %.2f N %.2f m, course %.4f rad, %.2f m/s",
+                 fix.timestamp_s, xy[0], xy[1], yaw, fix.speed_mps)
 
     # -- output -------------------------------------------------------------------------------
 

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from common.messages import GpsFix
+from mapper.config import UkfConfig
 from mapper.ukf_state import IVX, IVY, IW, IX, IY, IYAW
 
 if TYPE_CHECKING:
@@ -24,10 +26,27 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 
 
+def receiver_covariance(cfg: UkfConfig, fix: GpsFix,
+                        frame_yaw_enu_rad: float) -> FloatArray | None:
+    """The fix's position covariance (2, 2) in the world frame (turned by
+    ``frame_yaw_enu_rad`` from ENU) from the receiver's own 1-sigma latitude and longitude
+    errors; None when the fix has none (or ``gnss_sigma_from_receiver`` is off)."""
+    lat_s, lon_s = fix.lat_sigma_m, fix.lon_sigma_m
+    if not (cfg.gnss_sigma_from_receiver and math.isfinite(lat_s) and math.isfinite(lon_s)
+            and lat_s > 0.0 and lon_s > 0.0):
+        return None
+    k, floor = cfg.gnss_receiver_sigma_scale, cfg.gnss_receiver_sigma_floor_m
+    enu = np.diag([(k * max(lon_s, floor)) ** 2, (k * max(lat_s, floor)) ** 2])
+    c, s = math.cos(frame_yaw_enu_rad), math.sin(frame_yaw_enu_rad)
+    rot = np.array([[c, s], [-s, c]])  # ENU to world
+    return np.asarray(rot @ enu @ rot.T, np.float64)
+
+
 def update_position(ukf: UkfLocaliser, xy_world_m: FloatArray,
                     cov: FloatArray | None = None) -> bool:
     """Seed 001's GNSS pose model: z = (x, y) in the world frame, ``cov`` (2, 2) or the
-    configured sigma."""
+    configured sigma; the antenna ``gnss_antenna_x_m`` ahead of the rear axle (seed 001 has it
+    there: 0)."""
     cfg = ukf.config
     if not cfg.use_gnss_position:
         return False
@@ -48,6 +67,13 @@ def update_position(ukf: UkfLocaliser, xy_world_m: FloatArray,
         H[1, ukf.ih] = px
         H[0, IY] = -b
         H[1, IX] = b
+    a = cfg.gnss_antenna_x_m
+    if a != 0.0:
+        # The antenna a ahead of the rear axle: h = p + a (cos yaw, sin yaw).
+        c, s = math.cos(float(ukf.x[IYAW])), math.sin(float(ukf.x[IYAW]))
+        predicted += a * np.array([c, s])
+        H[0, IYAW] += -a * s
+        H[1, IYAW] += a * c
     return ukf.update_linear("gnss_position", z - predicted, H, R,
                              cfg.gnss_position_gate_sigma)
 

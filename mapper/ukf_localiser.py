@@ -90,6 +90,8 @@ class UkfLocaliser:
         self.stats: dict[str, Counter[str]] = {}
         self.gyro_bias_radps = 0.0
         self.accel_bias_mps2 = np.zeros(2)
+        self.wheel_scale = config.odometry_speed_scale
+        """The wheels' speed scale in use (the configured one, or the Mapper's estimate)."""
         self._calibration = StaticCalibration(config.static_gyro_threshold_radps,
                                               config.static_accel_threshold_mps2)
         self.calibrating = config.static_calibration
@@ -528,12 +530,13 @@ class UkfLocaliser:
             return False
         if self.calibrating and max(abs(v) for v in values) > 0.05:
             self.notify_moving()
-        v = ws.mean_rear_mps
+        k = self.wheel_scale
+        v = ws.mean_rear_mps * k
         source = cfg.odometry_yaw_rate_source
         if source == "steering" and steer is not None and math.isfinite(steer.angle_rad):
             w = v * math.tan(steer.angle_rad) / self.car.wheelbase_m
         elif source == "rear_wheels":
-            w = (ws.rear_right_mps - ws.rear_left_mps) / self.car.track_width_m
+            w = k * (ws.rear_right_mps - ws.rear_left_mps) / self.car.track_width_m
         else:
             w = math.nan
         if math.isfinite(w):

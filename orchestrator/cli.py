@@ -73,6 +73,18 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     _add_live(replay)
     replay.set_defaults(func=_replay)
 
+    imp = subparsers.add_parser(
+        "import", parents=[common],
+        help="convert a foreign vehicle log (comma2k19) into a recording of our sensors' bytes",
+    )
+    imp.add_argument("format", help="the log's format (comma2k19)")
+    imp.add_argument("source", type=Path, help="the log (a comma2k19 segment folder)")
+    imp.add_argument("--out", type=Path, required=True, help="the recording to write (.mcap)")
+    imp.add_argument("--drop-gnss", metavar="START_S:DURATION_S", default=None,
+                     help="leave out the GNSS fixes of this window (s after the log's start)")
+    imp.add_argument("--json", action="store_true", help="print what was written as JSON")
+    imp.set_defaults(func=_import)
+
     drive = subparsers.add_parser(
         "drive", parents=[common],
         help="drive the real car: live sensors, commands out on CAN, recording on",
@@ -156,6 +168,13 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
                                                progress=sys.stderr.isatty()))
     if args.json:
         print(json.dumps(summary, indent=2))
+    elif summary.get("mode") == "localisation":
+        print(f"localised {summary['log'] or recording} ({summary['ticks']} ticks, "
+              f"{summary['timing']['realtime_factor']}x real time)")
+        for key in ("position_rmse_m", "heading_rmse_deg", "gnss_raw_rmse_m",
+                    "gnss_raw_course_rmse_deg", "nees_position_mean", "gnss_outage"):
+            if key in summary:
+                print(f"{key}: {summary[key]}")
     else:
         timing = summary["timing"]
         print(f"replayed {summary['ticks']} ticks ({timing['sim_time_s']} s) in "
@@ -173,6 +192,22 @@ def _add_mission_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--exploration", choices=("autonomous", "manual"),
                         help="who drives trackdrive's first lap (default: config "
                              "mission.exploration)")
+
+
+def _import(args: argparse.Namespace, config: AppConfig) -> int:
+    import json
+
+    from orchestrator.log_import import import_log, parse_outage
+
+    outage = parse_outage(args.drop_gnss) if args.drop_gnss is not None else None
+    result = import_log(args.format, args.source, args.out, outage)
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        counts = ", ".join(f"{k} {v}" for k, v in sorted(result["counts"].items()))
+        print(f"wrote {result['recording']}: {counts} "
+              f"({result['end_s'] - result['start_s']:.1f} s of {result['log']})")
+    return 0
 
 
 def _drive(args: argparse.Namespace, config: AppConfig) -> int:

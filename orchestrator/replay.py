@@ -158,6 +158,11 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
         raise RecordingError(f"{path}: no such recording")
     if options.use_recorded_config:
         config = replay_config(config, path, options.config_file)
+    from orchestrator.localise import is_localisation_recording, run_localisation
+
+    if is_localisation_recording(path):
+        log.info("%s has no commands and no track: localisation only", path)
+        return run_localisation(config, path, options.out_dir, options.rate)
     end_s = last_command_time_s(path)
     if not math.isfinite(end_s):
         raise RecordingError(f"{path}: has no /command messages to know where the run ended")

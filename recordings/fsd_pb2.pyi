@@ -65,7 +65,7 @@ class CanFrame(_message.Message):
     def __init__(self, timestamp_s: _Optional[float] = ..., arbitration_id: _Optional[int] = ..., data: _Optional[bytes] = ..., is_extended_id: _Optional[bool] = ...) -> None: ...
 
 class GpsFix(_message.Message):
-    __slots__ = ("timestamp_s", "lat_deg", "lon_deg", "altitude_m", "fix_quality", "satellites", "hdop", "speed_mps", "course_rad", "utc_time_s")
+    __slots__ = ("timestamp_s", "lat_deg", "lon_deg", "altitude_m", "fix_quality", "satellites", "hdop", "speed_mps", "course_rad", "utc_time_s", "lat_sigma_m", "lon_sigma_m")
     TIMESTAMP_S_FIELD_NUMBER: _ClassVar[int]
     LAT_DEG_FIELD_NUMBER: _ClassVar[int]
     LON_DEG_FIELD_NUMBER: _ClassVar[int]
@@ -76,6 +76,8 @@ class GpsFix(_message.Message):
     SPEED_MPS_FIELD_NUMBER: _ClassVar[int]
     COURSE_RAD_FIELD_NUMBER: _ClassVar[int]
     UTC_TIME_S_FIELD_NUMBER: _ClassVar[int]
+    LAT_SIGMA_M_FIELD_NUMBER: _ClassVar[int]
+    LON_SIGMA_M_FIELD_NUMBER: _ClassVar[int]
     timestamp_s: float
     lat_deg: float
     lon_deg: float
@@ -86,7 +88,9 @@ class GpsFix(_message.Message):
     speed_mps: float
     course_rad: float
     utc_time_s: float
-    def __init__(self, timestamp_s: _Optional[float] = ..., lat_deg: _Optional[float] = ..., lon_deg: _Optional[float] = ..., altitude_m: _Optional[float] = ..., fix_quality: _Optional[int] = ..., satellites: _Optional[int] = ..., hdop: _Optional[float] = ..., speed_mps: _Optional[float] = ..., course_rad: _Optional[float] = ..., utc_time_s: _Optional[float] = ...) -> None: ...
+    lat_sigma_m: float
+    lon_sigma_m: float
+    def __init__(self, timestamp_s: _Optional[float] = ..., lat_deg: _Optional[float] = ..., lon_deg: _Optional[float] = ..., altitude_m: _Optional[float] = ..., fix_quality: _Optional[int] = ..., satellites: _Optional[int] = ..., hdop: _Optional[float] = ..., speed_mps: _Optional[float] = ..., course_rad: _Optional[float] = ..., utc_time_s: _Optional[float] = ..., lat_sigma_m: _Optional[float] = ..., lon_sigma_m: _Optional[float] = ...) -> None: ...
 
 class ImuSample(_message.Message):
     __slots__ = ("timestamp_s", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2", "gyro_x_radps", "gyro_y_radps", "gyro_z_radps")

@@ -15,8 +15,9 @@ Two layers, usable apart:
 
 Sentences used (any talker: GP, GN, GL, GA, GB, ...): GGA (position, quality, satellites, HDOP,
 altitude above mean sea level), RMC (status, position, speed, course), GLL (position, status),
-GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course) and GSA (HDOP when no GGA;
-its fix mode). Others are counted by type and otherwise ignored.
+GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course), GSA (HDOP when no GGA;
+its fix mode) and GST (the receiver's 1-sigma latitude and longitude errors, m). Others are
+counted by type and otherwise ignored.
 
 Status. The epoch's fix is valid when its latest status-bearing sentence says so: GGA quality
 > 0 with satellites, RMC/GLL status ``A`` (FAA mode not ``N``), GNS mode, or a GSA fix mode
@@ -263,6 +264,8 @@ class _Epoch:
     gsa_hdop: float = math.nan
     speed_mps: float = math.nan
     course_deg: float = math.nan
+    lat_sigma_m: float = math.nan
+    lon_sigma_m: float = math.nan
     valid: bool = False
     """What the epoch's latest status-bearing sentence (GGA, RMC, GLL, GNS, GSA) said."""
     seen_lat_deg: float = math.nan
@@ -296,6 +299,8 @@ class _Epoch:
             speed_mps=self.speed_mps,
             course_rad=compass_deg_to_enu_yaw(course) if math.isfinite(course) else math.nan,
             utc_time_s=self.utc_time_s,
+            lat_sigma_m=self.lat_sigma_m,
+            lon_sigma_m=self.lon_sigma_m,
         )
 
 
@@ -548,6 +553,15 @@ class NmeaParser:
             if math.isfinite(course):
                 epoch.course_deg = course
         self._done(epoch, "VTG", out)
+
+    def _on_gst(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+                out: list[GpsFix]) -> None:
+        data = msg.data
+        epoch = self._epoch_for(timestamp_s, "GST", self._utc(data[0]), out)
+        if not epoch.emitted:
+            epoch.lat_sigma_m = _float(data[5]) if len(data) > 5 else math.nan
+            epoch.lon_sigma_m = _float(data[6]) if len(data) > 6 else math.nan
+        self._done(epoch, "GST", out)
 
     def _on_gsa(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
                 out: list[GpsFix]) -> None:
