@@ -17,7 +17,7 @@ from common.car import CarConfig
 from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate, RemoteStop
 from controller.config import ControllerConfig
 from controller.pid import PID, LongitudinalController, RateLimiter, clip
-from controller.safety import SafetyStatus, SafetySupervisor, StopKind
+from controller.safety import SafetyStatus, SafetySupervisor, StopKind, manoeuvre_ahead_m
 from controller.steering import (
     CurvaturePreview,
     HeadingP,
@@ -172,8 +172,14 @@ class Controller:
             if path is None or not pose_ok:  # the supervisor stops the car next tick at latest
                 brake = 1.0
             else:
-                assert pose is not None
-                throttle, brake = self._speed_control(pose, path, speed, dt)
+                assert pose is not None and plan is not None
+                v_cap = math.inf
+                if now_s - plan.timestamp_s > cfg.safety.plan_timeout_s:
+                    # a late plan: no faster than its manoeuvre lets the car stop within it
+                    room = manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m) \
+                        - cfg.safety.late_plan_margin_m
+                    v_cap = math.sqrt(2.0 * cfg.safety.stop_decel_mps2 * max(room, 0.0))
+                throttle, brake = self._speed_control(pose, path, speed, dt, v_cap)
         steer = steer_target if steer_target is not None else self.steer_limiter.value
         steer = clip(steer, -self.car.max_steer_rad, self.car.max_steer_rad)
         steer = self.steer_limiter.update(steer, dt)
@@ -189,14 +195,14 @@ class Controller:
             self._path = PathRef.from_targets(plan.manoeuvre)
         return self._path
 
-    def _speed_control(self, pose: PoseEstimate, path: PathRef, speed: float, dt: float
-                       ) -> tuple[float, float]:
+    def _speed_control(self, pose: PoseEstimate, path: PathRef, speed: float, dt: float,
+                       v_cap_mps: float = math.inf) -> tuple[float, float]:
         cfg = self.config
         s_near, _ = path.nearest(pose.x_m, pose.y_m)
         s_ref = s_near + max(speed, 0.0) * cfg.speed_preview_s
-        v_ref = path.speed_at(s_ref)
+        v_ref = min(path.speed_at(s_ref), v_cap_mps)
         span = max(speed * 0.5, 1.0)
-        v_ahead = path.speed_at(s_ref + span)
+        v_ahead = min(path.speed_at(s_ref + span), v_cap_mps)
         a_ff = (v_ahead * v_ahead - v_ref * v_ref) / (2.0 * span)
         return self.longitudinal.update(v_ref, speed, a_ff, dt)
 

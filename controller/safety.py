@@ -3,8 +3,10 @@
 Faults and their response (issue 7, seed 002 3.1.3):
 
 - the remote emergency stop, or a stale critical sensor -> EMERGENCY at once (full braking);
-- a plan older than the timeout or with no manoeuvre, a pose that is not finite or too
-  uncertain, leaving the track corridor -> a controlled stop, then EMERGENCY at standstill;
+- a plan with no manoeuvre, a late plan (older than the timeout) whose manoeuvre no longer
+  covers a controlled stop or older than its maximum age, a pose that is not finite or too
+  uncertain, leaving the track corridor -> a controlled stop, then EMERGENCY at standstill
+  (a late plan that still covers a stop is followed, slower: see the Controller);
 - the end of the run (lap count reached) -> a controlled stop, then FINISHED at standstill.
 
 States and legal transitions (FS rules, DV 2.x): OFF -> READY -> DRIVING -> FINISHED;
@@ -21,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.messages import AsState, Health, Plan, PoseEstimate, RemoteStop
+from common.messages import AsState, Health, Plan, PoseEstimate, RemoteStop, TargetStates
 from controller.config import SafetyConfig
 
 logger = logging.getLogger(__name__)
@@ -33,6 +35,17 @@ LEGAL_TRANSITIONS: dict[AsState, frozenset[AsState]] = {
     AsState.FINISHED: frozenset({AsState.EMERGENCY, AsState.OFF}),
     AsState.EMERGENCY: frozenset({AsState.OFF}),
 }
+
+
+def manoeuvre_ahead_m(manoeuvre: TargetStates, x_m: float, y_m: float) -> float:
+    """Length (m) of the manoeuvre's path from its point nearest (x, y) to its end; 0 for a
+    manoeuvre of fewer than two states."""
+    x, y = manoeuvre.x_m, manoeuvre.y_m
+    if len(x) < 2:
+        return 0.0
+    seg = np.hypot(np.diff(x), np.diff(y))
+    nearest = int(np.argmin((x - x_m) ** 2 + (y - y_m) ** 2))
+    return float(np.sum(seg[nearest:]))
 
 
 class StopKind(enum.IntEnum):
@@ -70,6 +83,8 @@ class SafetySupervisor:
         self.transitions: list[tuple[float, AsState, AsState, str]] = []
         self._ready_since_s = math.nan
         self._no_path_since_s = math.nan
+        self.late_plan_ticks = 0
+        """Ticks driven on a late plan that still covered a stop."""
 
     # ------------------------------------------------------------------ state machine
     def transition(self, now_s: float, new: AsState, reason: str = "") -> bool:
@@ -182,7 +197,14 @@ class SafetySupervisor:
             return "no plan"
         age = now_s - plan.timestamp_s
         if age > c.plan_timeout_s:
-            return f"plan too old: {age:.3f} s"
+            if age > c.plan_max_age_s:
+                return f"plan too old: {age:.3f} s"
+            ahead = manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m)
+            need = max(pose.vx_mps, 0.0) ** 2 / (2.0 * c.stop_decel_mps2) + c.late_plan_margin_m
+            if ahead < need:
+                return (f"plan too old: {age:.3f} s, its {ahead:.1f} m ahead do not cover a "
+                        f"stop ({need:.1f} m)")
+            self.late_plan_ticks += 1
         if self.laps is not None and plan.lap >= self.laps:
             return f"finished: {plan.lap} laps"
         if len(plan.manoeuvre) == 0:

@@ -59,9 +59,10 @@ class MissionConfig:
     mission: str = "trackdrive"
     """``trackdrive`` (laps of a track it maps on the first) or ``autocross`` (one lap of an
     unseen track, explored as it goes)."""
-    exploration: str = "manual"
+    exploration: str = "autonomous"
     """Who drives the first lap of trackdrive: ``autonomous`` (the stack, from the cones it
-    sees) or ``manual`` (a person, seed 002's method; in simulation the scripted driver)."""
+    sees, as at a Formula Student Driverless event) or ``manual`` (a person, seed 002's
+    method; in simulation the scripted driver)."""
     start_heading_enu_rad: float | None = None
     """The world frame's heading in ENU (rad, counter-clockwise from east) when it is known (a
     dual antenna, a magnetometer, a surveyed start); None: the Mapper estimates it from GNSS."""

@@ -62,8 +62,8 @@ class EmulatorOptions:
     at most this long (0: start at once): the person drives only once the stack is running."""
     mission: str = "trackdrive"
     """The mission the emulated car selects (written into the config for ``drive``)."""
-    exploration: str = "manual"
-    """``manual``: the scripted person drives the first lap; ``autonomous``: nobody does."""
+    exploration: str = "autonomous"
+    """``autonomous``: nobody drives the first lap; ``manual``: the scripted person does."""
     lead_in_s: float = 1.0
     """Then it stands this long with its sensors streaming before the exploration lap starts."""
 

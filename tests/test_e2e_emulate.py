@@ -103,7 +103,9 @@ def start_emulator(folder: Path, procs: list[Proc], seconds: float) -> tuple[Pro
     summary = folder / "emulator.json"
     emulator = Proc("emulate", ["emulate", "-v", "--track", str(TRACK), "--write-config",
                                 str(car), "--summary", str(summary), "--seconds", str(seconds),
-                                "--workdir", str(folder / "ports")], folder)
+                                "--workdir", str(folder / "ports"),
+                                # a person drives the first lap (its config tells drive so)
+                                "--exploration", "manual"], folder)
     procs.append(emulator)
     end = time.monotonic() + 30.0
     while not car.exists():

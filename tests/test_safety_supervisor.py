@@ -113,7 +113,7 @@ def run_controlled_stop(ctrl: Controller, make_inputs, v0: float = 10.0) -> list
 )
 def test_faults_lead_to_a_controlled_stop_then_emergency(fault: str, reason: str) -> None:
     ctrl = driving_controller()
-    fresh = straight_plan(-0.5)  # already older than the timeout
+    fresh = straight_plan(-1.5)  # already older than a late plan may be (1 s)
 
     def inputs(t: float, v: float):
         if fault == "old_plan":
@@ -164,3 +164,57 @@ def test_no_go_while_a_critical_sensor_is_stale() -> None:
     ctrl.command(0.01, pose(0.01), straight_plan(0.01), health(0.01, ("imu",)),
                  RemoteStop(0.01, False, True))
     assert ctrl.state == AsState.READY
+
+
+def test_a_late_plan_that_covers_a_stop_is_followed_not_stopped_for() -> None:
+    """On a busy computer the planner may be late: a plan older than the timeout (0.2 s) whose
+    manoeuvre still reaches beyond a controlled stop is followed; only one that no longer
+    does, or one older than its maximum age (1 s), stops the car, with a specific reason."""
+    config = AppConfig()
+    ctrl = driving_controller(config)
+    late = straight_plan(0.02)  # 300 m of manoeuvre, never refreshed
+    for k in range(3, 60):  # to 0.6 s: late, but far from its end
+        t = 0.01 * k
+        cmd = ctrl.command(t, pose(t, x=10.0 + 10.0 * t), late, health(t), None)
+        assert ctrl.state == AsState.DRIVING and ctrl.safety.stop == StopKind.NONE, \
+            ctrl.stop_reason
+    assert cmd.brake == 0.0
+    assert ctrl.safety.late_plan_ticks > 30
+    # older than the maximum age: a controlled stop
+    ctrl.command(1.1, pose(1.1, x=21.0), late, health(1.1), None)
+    assert ctrl.safety.stop == StopKind.CONTROLLED
+    assert ctrl.stop_reason.startswith("plan too old: 1.080 s")
+
+
+def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
+    """At 10 m/s a controlled stop (6 m/s^2) takes 8.3 m, plus the 1 m margin: a late plan
+    with 5 m of manoeuvre left ahead of the car ends the run."""
+    ctrl = driving_controller()
+    late = straight_plan(0.02)
+    t = 0.4
+    ctrl.command(t, pose(t, x=295.0), late, health(t), None)
+    assert ctrl.safety.stop == StopKind.CONTROLLED
+    assert "do not cover a stop" in ctrl.stop_reason
+
+
+def test_a_late_plan_caps_the_speed_to_what_its_manoeuvre_lets_the_car_stop_in() -> None:
+    """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 12.5 m/s (a stop
+    takes 13 m plus the margin: covered): fresh, the car accelerates toward 20 m/s; late,
+    toward no more than sqrt(2 x 6 x (15 - 1)) = 13 m/s, the speed from which a controlled stop
+    ends within the manoeuvre: less throttle."""
+    from controller.safety import manoeuvre_ahead_m
+
+    plan = straight_plan(0.0, speed=20.0)
+    assert manoeuvre_ahead_m(plan.manoeuvre, 284.5, 0.3) == pytest.approx(15.0)
+    assert manoeuvre_ahead_m(plan.manoeuvre, 400.0, 0.0) == 0.0
+    throttles = []
+    for late in (False, True):
+        ctrl = driving_controller()
+        t = 0.4
+        made = straight_plan(0.02 if late else t, speed=20.0)
+        for k in range(5):
+            now = t + 0.01 * k
+            cmd = ctrl.command(now, pose(now, x=284.5, v=12.5), made, health(now), None)
+        assert ctrl.safety.stop == StopKind.NONE
+        throttles.append(cmd.throttle - cmd.brake)
+    assert throttles[1] < throttles[0]
