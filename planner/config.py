@@ -118,12 +118,7 @@ class PlannerConfig:
     """Fraction of the car's steering rate the profile lets the path's curvature changes use
     (the rest corrects the car)."""
     understeer_rad_per_mps2: float = 0.004
-    """The car's understeer (extra steering per lateral acceleration) for that limit and the
-    steering angle's."""
-    steer_angle_fraction: float = 0.85
-    """Fraction of the car's steering lock a bend may take at speed (kinematic angle plus the
-    understeer's): the rest corrects the car. Binds only in the tightest bends (radius below
-    about 3.5 m), where the understeer at the lateral limit would ask for more than the lock."""
+    """The car's understeer (extra steering per lateral acceleration) for that limit."""
     max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0

@@ -27,7 +27,6 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
-    steering_angle_speed_limit_mps,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
@@ -236,7 +235,6 @@ class PathPlanner:
             kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
-        extra = np.minimum(extra, self._steering_angle_limit(kappa))
         if c.speed_mode == "two_level":
             extra = np.minimum(extra, two_level_speed_mps(
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
@@ -247,12 +245,6 @@ class PathPlanner:
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
-
-    def _steering_angle_limit(self, kappa_1pm: FloatArray) -> FloatArray:
-        c = self.config
-        return steering_angle_speed_limit_mps(
-            kappa_1pm, self.car.wheelbase_m, c.steer_angle_fraction * self.car.max_steer_rad,
-            c.understeer_rad_per_mps2, crawl_mps=c.min_plan_speed_mps)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:
         """The baseframe speed profile (m/s) at arc lengths ``s_m``."""
@@ -437,7 +429,6 @@ class PathPlanner:
         ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
         v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
                                                                       self.limits))
-        v_lim = np.minimum(v_lim, self._steering_angle_limit(cand.curvature_1pm))
         v_lim = np.minimum(v_lim, cand.speed_cap_mps)
         # a stop: brake (within the limits) to stand at the end of the candidate
         v_end = 0.0 if stop else float(v_lim[-1])

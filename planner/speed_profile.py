@@ -53,25 +53,6 @@ def curvature_speed_limit_mps(kappa_1pm: ArrayLike, limits: SpeedLimits) -> Floa
     return np.minimum(v, limits.top_speed_mps)
 
 
-def steering_angle_speed_limit_mps(
-    kappa_1pm: ArrayLike,
-    wheelbase_m: float,
-    steer_budget_rad: float,
-    understeer_rad_per_mps2: float,
-    crawl_mps: float = 1.0,
-) -> FloatArray:
-    """Highest speed (m/s) at each curvature (1/m) the steering can hold with its understeer:
-    the steady-state angle atan(L |kappa|) + K v^2 |kappa| must stay within
-    ``steer_budget_rad``. A bend that takes the whole budget kinematically gets ``crawl_mps``;
-    inf where the steering is no limit (K = 0, a straight)."""
-    k = np.abs(np.asarray(kappa_1pm, np.float64))
-    room = steer_budget_rad - np.arctan(wheelbase_m * k)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v = np.sqrt(np.maximum(room, 0.0) / (understeer_rad_per_mps2 * k))
-    v = np.where(np.isfinite(v), v, np.inf)
-    return np.asarray(np.where(room > 0.0, np.maximum(v, crawl_mps), crawl_mps), np.float64)
-
-
 def steering_rate_speed_limit_mps(
     kappa_1pm: ArrayLike,
     ds_m: float,

@@ -13,7 +13,6 @@ from planner.speed_profile import (
     forward_backward_speed_mps,
     lap_time_s,
     min_lap_time_s,
-    steering_angle_speed_limit_mps,
     two_level_speed_mps,
 )
 
@@ -76,20 +75,3 @@ def test_min_lap_time_on_a_circle() -> None:
 def test_lap_time_of_constant_speed() -> None:
     assert lap_time_s(np.full(10, 5.0), np.full(10, 1.0)) == pytest.approx(2.0)
 
-
-def test_steering_angle_limit_keeps_the_lock_in_reserve() -> None:
-    """At the limit speed the steady-state angle atan(L kappa) + K v^2 kappa takes exactly the
-    budget; a straight has no limit; a bend that takes the whole budget kinematically gets
-    the crawl speed; the limit falls as the bend tightens."""
-    wheelbase, budget, k_us = 1.53, 0.85 * 0.52, 0.004
-    kappa = np.array([0.0, 0.1, 0.2, 0.25, 0.29, 0.5])
-    v = steering_angle_speed_limit_mps(kappa, wheelbase, budget, k_us, crawl_mps=1.0)
-    assert math.isinf(v[0])
-    for k, vk in zip(kappa[1:5], v[1:5], strict=True):
-        assert math.atan(wheelbase * k) + k_us * vk * vk * k == pytest.approx(budget, rel=1e-9)
-    assert np.all(np.diff(v[1:5]) < 0.0)
-    assert math.atan(wheelbase * 0.5) > budget and v[5] == 1.0
-    # the hairpin that put a car into the cones at 6 m/s (radius 3.4 m): below 5 m/s now
-    assert v[4] < 5.0
-    # and a 4.5 m bend is not limited below what the tyres allow (sqrt(8.8 * 4.5) = 6.3 m/s)
-    assert steering_angle_speed_limit_mps(np.array([1 / 4.5]), wheelbase, budget, k_us)[0] > 6.3
