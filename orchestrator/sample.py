@@ -75,6 +75,7 @@ def make_sample(path: Path, max_sim_time_s: float = SAMPLE_MAX_SIM_TIME_S) -> di
                 "(once; about 20 s)", path)
     start = time.perf_counter()
     config = AppConfig()
+    config.mission.exploration = "manual"  # the sample is a person's exploration lap
     config.run.max_sim_time_s = max_sim_time_s
     path.parent.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=".making-", dir=path.parent))

@@ -51,6 +51,7 @@ def sim_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, A
     config = out / "short.toml"
     config.write_text(f"[run]\nmax_sim_time_s = {SIM_TIME_S}\nrender = false\n")
     proc = main_py("sim", "--config", str(config), "--track", str(TRACK), "--laps", "1",
+                   "--exploration", "manual",  # a person's lap, then the handover
                    "--no-render", "--out", str(out / "run"), "--json")
     assert proc.returncode in (0, 1), proc.stderr  # 1: the run timed out (expected here)
     summary = json_out(proc)
