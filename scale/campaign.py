@@ -127,7 +127,7 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
                 ready, _ = ray.wait(list(pending), num_returns=1)
                 for ref in ready:
                     spec = pending.pop(ref)
-                    row = _collect(ray, ref, spec)
+                    row = collect_row(ray, ref, spec)
                     summary = row.pop("summary", None)
                     if summary is not None:
                         _write_json(out_dir / "runs" / f"{spec.run_id}.json",
@@ -155,7 +155,7 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
     return CampaignResult(rows, len(todo), failed, skipped, wall_s, engine)
 
 
-def _collect(ray: Any, ref: Any, spec: RunSpec) -> dict[str, Any]:
+def collect_row(ray: Any, ref: Any, spec: RunSpec) -> dict[str, Any]:
     """A finished task's row; a task that died (worker crash, lost node) is a failed row."""
     try:
         row: dict[str, Any] = ray.get(ref)

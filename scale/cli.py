@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from common.cli_types import positive_int, seed_list
+from common.cli_types import non_negative_int, positive_int, seed_list
 from orchestrator.config import AppConfig
 from simulator.faults import fault_spec
 
@@ -82,9 +82,7 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     _engine_arguments(campaign)
     campaign.set_defaults(func=_campaign)
 
-    from scale.tune_cli import register_tune
-
-    register_tune(subparsers, common, _run_arguments, _engine_arguments)
+    _register_tune(subparsers, common)
 
 
 def _campaign(args: argparse.Namespace, config: AppConfig) -> int:
@@ -115,3 +113,51 @@ def _campaign(args: argparse.Namespace, config: AppConfig) -> int:
     print(f"results: {args.out / 'results.csv'}  report: {args.out / 'report.html'}")
     print(f"wall_s={result.wall_s:.1f}")
     return 0 if not result.failed else 1
+
+
+def _register_tune(subparsers: Any, common: argparse.ArgumentParser) -> None:
+    tune = subparsers.add_parser(
+        "tune", parents=[common],
+        help="search planner/controller/filter parameters (Optuna) with runs on Ray; writes "
+             "the best setting as a --config TOML")
+    tune.add_argument("--space", type=Path, required=True,
+                      help="TOML search space (see config/tune_space.toml)")
+    tune.add_argument("--trials", type=positive_int, default=20,
+                      help="trials, the configuration as it is (trial 0) included (default 20)")
+    _run_arguments(tune, "1")
+    tune.add_argument("--sampler-seed", type=non_negative_int, default=0,
+                      help="seed of Optuna's TPE sampler (default 0)")
+    tune.add_argument("--batch", type=positive_int, default=None,
+                      help="trials run at once (default: enough to fill the CPUs)")
+    tune.add_argument("--out", type=Path, required=True,
+                      help="folder for trials.csv, tune.json and best.toml")
+    _engine_arguments(tune)
+    tune.set_defaults(func=_tune)
+
+
+def _tune(args: argparse.Namespace, config: AppConfig) -> int:
+    from scale.engine import require_optuna, require_ray
+    from scale.tune import load_space, tune
+    from simulator.tracks import load_track
+
+    require_ray()
+    require_optuna()
+    params = load_space(args.space, config)
+    for track in args.tracks:
+        load_track(track)
+    summary = tune(config, params, args.tracks, args.seeds, args.laps or config.mission.laps,
+                   args.trials, args.out, mission=args.mission, address=args.address,
+                   num_cpus=args.cpus, sampler_seed=args.sampler_seed, batch=args.batch,
+                   base_config=Path(args.config) if args.config else None)
+    base, best = summary["baseline"], summary["best"]
+    print(f"baseline (trial 0): mean best lap {base['mean_best_lap_s']:.3f} s, "
+          f"cones hit {base['cones_hit']}, feasible {base['feasible']}")
+    if best is None:
+        print("no feasible trial (every one hit cones, left the track or failed)",
+              file=sys.stderr)
+        return 1
+    print(f"best (trial {best['trial']}): mean best lap {best['mean_best_lap_s']:.3f} s, "
+          f"cones hit {best['cones_hit']}: {best['params']}")
+    print(f"best setting: {summary['best_toml']} (use with --config)")
+    print(f"improvement_s={summary['improvement_s']:.3f}")
+    return 0
