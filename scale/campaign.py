@@ -25,6 +25,7 @@ from scale.engine import EngineInfo, ray_session
 from scale.runs import COLUMNS, RunRequest, RunSpec, make_row, run_one
 
 log = logging.getLogger(__name__)
+progress_log = logging.getLogger("progress")
 
 RESULTS = "results.csv"
 CAMPAIGN = "campaign.json"
@@ -140,6 +141,11 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
                                     row["error"])
                     bar.update(1)
                     bar.set_postfix_str(f"done={len(rows)} failed={failed}", refresh=False)
+                    if not progress:  # no bar (not a terminal): a plain line per run
+                        ran = len(todo) - len(pending)
+                        left_s = (time.perf_counter() - wall0) / ran * len(pending)
+                        progress_log.info("campaign: %d of %d done, %d failed, about %.0f s left",
+                                          len(rows), len(specs), failed, left_s)
         finally:
             bar.close()
             sink.close()

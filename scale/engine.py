@@ -30,6 +30,10 @@ log = logging.getLogger(__name__)
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 """The folder holding ``main.py`` and the packages (what workers import)."""
 
+OBJECT_STORE_BYTES = 200 * 1024 * 1024
+"""Object store of a local Ray (bytes): a run's row and summary are a few kB, the configuration
+a few more; Ray's default (30 % of the memory) would take a shared machine's memory."""
+
 INSTALL_HINT = 'pip install -e ".[scale]"'
 
 
@@ -110,7 +114,9 @@ def ray_session(address: str | None = None, num_cpus: int | None = None) -> Iter
         warnings.simplefilter("ignore")
         try:
             if address is None:
-                ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False,
+                # "local": a new Ray of our own, never one some other program started here
+                ray.init(address="local", num_cpus=num_cpus or os.cpu_count() or 1,
+                         include_dashboard=False, object_store_memory=OBJECT_STORE_BYTES,
                          runtime_env=runtime_env, **quiet)
             else:
                 ray.init(address=address, runtime_env=runtime_env, **quiet)
