@@ -115,11 +115,12 @@ def _plot_png(rows: Sequence[dict[str, Any]]) -> str:
     if not any(laps) and not any(pose):
         return ""
     names = [Path(t).stem if "/" in t else t for t in tracks]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 0.5 + 0.45 * max(len(tracks), 4)))
+    fig, axes = plt.subplots(1, 2, figsize=(max(8.0, 1.2 * len(tracks) + 4.0), 4.5))
     for ax, data, label in ((axes[0], laps, "best lap (s)"), (axes[1], pose, "pose RMSE (m)")):
-        ax.boxplot([d if d else [math.nan] for d in data], vert=False, tick_labels=names)
-        ax.set_xlabel(label)
-        ax.grid(True, axis="x", alpha=0.3)
+        ax.boxplot([d if d else [math.nan] for d in data])
+        ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right")
+        ax.set_ylabel(label)
+        ax.grid(True, axis="y", alpha=0.3)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=90)

@@ -109,10 +109,12 @@ def nested(setting: tuple[tuple[str, Any], ...] | dict[str, Any]) -> dict[str, A
     return out
 
 
-def configured(config: AppConfig, setting: tuple[tuple[str, Any], ...]) -> AppConfig:
-    """A copy of ``config`` with the setting applied and checked (:class:`ConfigError`)."""
+def configured(config: AppConfig, setting: tuple[tuple[str, Any], ...],
+               source: str = "--set") -> AppConfig:
+    """A copy of ``config`` with the setting applied and checked (:class:`ConfigError`, its
+    line starting with ``source``)."""
     config = copy.deepcopy(config)
-    apply_overrides(config, nested(setting), "--set")
+    apply_overrides(config, nested(setting), source)
     validate(config)
     return config
 

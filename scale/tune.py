@@ -108,7 +108,7 @@ def load_space(path: Path, config: AppConfig) -> list[Param]:
                           spec.get("step"), spec.get("type") == "int")
         values: list[Any] = [low, high] if not param.choices else list(param.choices)
         for value in values:  # every end of the range must be a valid setting of that key
-            configured(config, ((key, int(value) if param.integer else value),))
+            configured(config, ((key, int(value) if param.integer else value),), str(path))
         params.append(param)
     return params
 

@@ -36,7 +36,7 @@ ALLOWED: dict[str, set[str]] = {
     "simulator": {"common", "sensors"},
     "orchestrator": COMMON | TIER2 | WORLD,
     "main": COMMON | TIER2 | WORLD | {"orchestrator"},
-    "bench": COMMON | TIER2 | WORLD | TIER1,
+    "bench": COMMON | TIER2 | WORLD | TIER1 | {"scale"},
     "scale": COMMON | TIER2 | WORLD | TIER1 | {"bench"},
 }
 """The packages each package may import besides itself."""
