@@ -4,7 +4,10 @@ Runs every (track, seed) first one after another in this process (the reference:
 campaign replaces), then as a campaign on a local Ray with ``--cpus`` CPUs, both measured in
 this run on this machine. Prints one line per run (both wall times, whether the two
 ``outputs_sha256`` agree), then the wall times and, last, ``speedup=`` (sequential / campaign).
-A shared machine's other load shows in both; the ratio is the figure.
+A shared machine's other load shows in both; the ratio is the figure. Beside it, what the
+machine gives at that moment: ``machine_parallel=`` is the throughput of ``--cpus`` processes
+burning CPU at once over one alone (2.0 on two free cores; less when the cores are hyperthreads
+of one or other programs use them), and ``efficiency=`` the speed-up over it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,29 @@ HELP = "campaign on a local Ray vs the same runs one after another: speed-up, sa
 
 SHARED_TRACKS = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "eufs"
 DEFAULT_TRACKS = f"{SHARED_TRACKS / 'small_track.csv'},{SHARED_TRACKS / 'small_oval.csv'}"
+
+
+def _burn(iterations: int) -> float:
+    """Wall time (s) of a pure-Python CPU loop."""
+    t0 = time.perf_counter()
+    x = 0
+    for i in range(iterations):
+        x += i * i
+    return time.perf_counter() - t0
+
+
+def machine_parallel(processes: int, iterations: int = 10_000_000) -> float:
+    """Throughput of ``processes`` CPU-bound processes at once over one alone (a reference for
+    the campaign's speed-up, measured now: at most ``processes``)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=processes) as pool:
+        list(pool.map(_burn, [1000] * processes))  # workers started before timing
+        alone = min(pool.submit(_burn, iterations).result() for _ in range(2))
+        t0 = time.perf_counter()
+        list(pool.map(_burn, [iterations] * processes))
+        together = time.perf_counter() - t0
+    return processes * alone / together
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,6 +77,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     specs = request.specs()
     print(f"{len(specs)} runs: one after another, then a campaign on {args.cpus} CPUs",
           flush=True)
+    capacity_before = machine_parallel(args.cpus)
     sequential: dict[str, dict] = {}
     t0 = time.perf_counter()
     for spec in specs:
@@ -71,5 +98,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
               f"{row['error'] or ''}")
     print(f"sequential_s={sequential_s:.1f} campaign_s={campaign_s:.1f} "
           f"same_outputs={same}/{len(specs)} failed={result.failed}")
-    print(f"speedup={sequential_s / campaign_s:.2f}")
+    capacity = (capacity_before + machine_parallel(args.cpus)) / 2  # before and after
+    speedup = sequential_s / campaign_s
+    print(f"machine_parallel={capacity:.2f} efficiency={speedup / capacity:.2f}")
+    print(f"speedup={speedup:.2f}")
     return 0 if same == len(specs) else 1

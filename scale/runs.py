@@ -124,8 +124,10 @@ def run_one(config: AppConfig, spec: RunSpec) -> dict[str, Any]:
     summary under ``"summary"`` (None when the run failed)."""
     from orchestrator.sim import SimOptions, run_sim
 
-    logging.getLogger().setLevel(logging.ERROR)  # a worker's warnings are many and not read
-    logging.getLogger("progress").setLevel(logging.WARNING)
+    root, progress = logging.getLogger(), logging.getLogger("progress")
+    levels = root.level, progress.level
+    root.setLevel(logging.ERROR)  # a run's warnings are many and not read; its row is the result
+    progress.setLevel(logging.WARNING)
     wall0 = time.perf_counter()
     summary: dict[str, Any] | None = None
     error = ""
@@ -138,6 +140,9 @@ def run_one(config: AppConfig, spec: RunSpec) -> dict[str, Any]:
         summary.pop("out_dir", None)
     except Exception as exc:  # a run that fails is a row, not the end of the campaign
         error = f"{type(exc).__name__}: {exc}".splitlines()[0]
+    finally:
+        root.setLevel(levels[0])
+        progress.setLevel(levels[1])
     row = make_row(spec, summary, time.perf_counter() - wall0, error)
     row["summary"] = summary
     return row
