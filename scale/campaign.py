@@ -48,7 +48,9 @@ def read_rows(path: Path) -> list[dict[str, str]]:
         if tuple(reader.fieldnames) != COLUMNS:
             raise CampaignError(f"{path}: not a results file of this version (columns "
                                 f"{','.join(reader.fieldnames)[:80]}...); use another --out")
-        return [row for row in reader if row.get("run_id")]
+        # a line cut short by an interrupted write lacks fields: that run is run again
+        return [row for row in reader
+                if row.get("run_id") and all(row.get(c) is not None for c in COLUMNS)]
 
 
 @dataclass
@@ -68,7 +70,10 @@ class _Sink:
 
     def __init__(self, path: Path) -> None:
         new = not path.exists() or path.stat().st_size == 0
+        cut = not new and path.read_bytes()[-1:] != b"\n"  # an interrupted write's last line
         self._fh = path.open("a", newline="")
+        if cut:
+            self._fh.write("\n")
         self._writer = csv.DictWriter(self._fh, fieldnames=COLUMNS, extrasaction="ignore")
         if new:
             self._writer.writeheader()

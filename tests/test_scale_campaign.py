@@ -155,3 +155,20 @@ def test_bad_setting_and_address_are_one_line_errors(tmp_path: Path,
         normalise_address("127.0.0.1")
     assert normalise_address("ray://10.0.0.1:10001") == "ray://10.0.0.1:10001"
     assert normalise_address(None) is None
+
+
+def test_a_line_cut_short_is_run_again(local_campaign: Path, tmp_path: Path) -> None:
+    """An interrupted write leaves half a line: resuming skips the whole rows only, and the
+    next row starts on a line of its own."""
+    from scale.campaign import _Sink, read_rows
+
+    results = tmp_path / "results.csv"
+    text = (local_campaign / "results.csv").read_text()
+    header, line = text.splitlines()[:2]
+    results.write_text(f"{header}\n{line}\n{line[: len(line) // 2]}")
+    rows = read_rows(results)
+    assert [r["run_id"] for r in rows] == [line.split(",")[0]]
+    sink = _Sink(results)
+    sink.write(dict(rows[0]))
+    sink.close()
+    assert len(read_rows(results)) == 2 and results.read_text().endswith("\n")
