@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -118,6 +119,7 @@ def test_cluster_started_here_gives_the_same_rows(local_campaign: Path, tmp_path
         except subprocess.TimeoutExpired:
             os.killpg(head.pid, signal.SIGKILL)
             head.wait()
+        shutil.rmtree(temp_dir, ignore_errors=True)
     cluster, local = _rows(out), _rows(local_campaign)
     assert [{c: r[c] for c in SAME_RUN_COLUMNS} for r in cluster] == \
         [{c: r[c] for c in SAME_RUN_COLUMNS} for r in local]
