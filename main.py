@@ -42,6 +42,7 @@ COMMAND_PACKAGES = (
     "planner",
     "controller",
     "bench",
+    "scale",
 )
 
 DEFAULT_COMMAND = "sim"

@@ -12,7 +12,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OURS = {"common", "orchestrator", "sensors", "mapper", "planner", "controller", "visualiser",
-        "recordings", "simulator", "bench", "main", "support", "planner_closed_loop_helpers"}
+        "recordings", "simulator", "bench", "scale", "main", "support",
+        "planner_closed_loop_helpers"}
 
 
 def _normalise(name: str) -> str:
@@ -66,9 +67,20 @@ def _product_files() -> list[Path]:
 
 
 def test_product_imports_are_declared_dependencies() -> None:
-    imported = _imported(_product_files())
+    files = _product_files()
+    core = [p for p in files if not p.is_relative_to(ROOT / "scale")]
+    imported = _imported(core)
     assert {"numpy", "scipy", "lz4"} <= set(imported)
     assert _undeclared(imported, _declared()) == {}
+    # campaigns and tuning (scale/) may also use the optional extra 'scale'
+    scale = _imported([p for p in files if p.is_relative_to(ROOT / "scale")])
+    assert {"ray", "optuna"} <= set(scale)
+    assert _undeclared(scale, _declared() | _declared("scale")) == {}
+
+
+def test_scale_extra_is_in_dev() -> None:
+    """CI installs the dev extra: it must bring what the scale tests need."""
+    assert _declared("scale") <= _declared("dev")
 
 
 def test_test_imports_are_declared_dependencies_or_dev_extras() -> None:

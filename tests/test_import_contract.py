@@ -27,7 +27,7 @@ COMMON = {"common"}
 TIER2 = {"sensors", "mapper", "planner", "controller", "visualiser", "recordings"}
 WORLD = {"simulator"}
 TIER1 = {"main", "orchestrator"}
-TOOLS = {"bench"}
+TOOLS = {"bench", "scale"}
 OURS = COMMON | TIER2 | WORLD | TIER1 | TOOLS
 
 ALLOWED: dict[str, set[str]] = {
@@ -36,7 +36,8 @@ ALLOWED: dict[str, set[str]] = {
     "simulator": {"common", "sensors"},
     "orchestrator": COMMON | TIER2 | WORLD,
     "main": COMMON | TIER2 | WORLD | {"orchestrator"},
-    "bench": COMMON | TIER2 | WORLD | TIER1,
+    "bench": COMMON | TIER2 | WORLD | TIER1 | {"scale"},
+    "scale": COMMON | TIER2 | WORLD | TIER1 | {"bench"},
 }
 """The packages each package may import besides itself."""
 

@@ -1,0 +1,1 @@
+"""Campaigns and tuning at scale: many closed-loop runs on Ray (``campaign``, ``tune``)."""
