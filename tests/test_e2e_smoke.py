@@ -75,7 +75,8 @@ def test_sim_estop_while_driving(tmp_path: Path) -> None:
     config.write_text("[run]\nmax_sim_time_s = 40.0\nrender = false\n")
     out = tmp_path / "run"
     proc = main_py("sim", "--config", str(config), "--track", str(OVAL), "--no-render",
-                   "--exploration", "manual", "--fault", "estop@24", "--fault", "can-garbage@5:3", "--fault", "imu-nan@8:1",
+                   "--exploration", "manual", "--fault", "estop@24",
+                   "--fault", "can-garbage@5:3", "--fault", "imu-nan@8:1",
                    "--fault", "gps-dropout@2:5", "--out", str(out), "--json")
     assert proc.returncode == 0, proc.stderr
     summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
