@@ -26,8 +26,11 @@ class SafetyConfig:
     rest of its manoeuvre covers a controlled stop (it slows as the plan ages), and stops when
     it no longer does or the plan is older than ``plan_max_age_s``."""
     plan_max_age_s: float = 1.0
-    late_plan_margin_m: float = 1.0
-    """A late plan must reach this far (m) beyond the controlled stop's distance."""
+    late_plan_reaction_s: float = 0.2
+    """A late plan must cover the controlled stop's distance plus the distance driven in this
+    time (the control and actuator delay) ..."""
+    late_plan_margin_m: float = 0.2
+    """... plus this (m)."""
     no_path_timeout_s: float = 1.5
     """A plan with no feasible manoeuvre (the planner brakes) for this long ends the run."""
     critical_sources: tuple[str, ...] = ("imu", "lidar")

@@ -17,7 +17,13 @@ from common.car import CarConfig
 from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate, RemoteStop
 from controller.config import ControllerConfig
 from controller.pid import PID, LongitudinalController, RateLimiter, clip
-from controller.safety import SafetyStatus, SafetySupervisor, StopKind, manoeuvre_ahead_m
+from controller.safety import (
+    SafetyStatus,
+    SafetySupervisor,
+    StopKind,
+    late_plan_speed_mps,
+    manoeuvre_ahead_m,
+)
 from controller.steering import (
     CurvaturePreview,
     HeadingP,
@@ -176,9 +182,8 @@ class Controller:
                 v_cap = math.inf
                 if now_s - plan.timestamp_s > cfg.safety.plan_timeout_s:
                     # a late plan: no faster than its manoeuvre lets the car stop within it
-                    room = manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m) \
-                        - cfg.safety.late_plan_margin_m
-                    v_cap = math.sqrt(2.0 * cfg.safety.stop_decel_mps2 * max(room, 0.0))
+                    v_cap = late_plan_speed_mps(
+                        manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m), cfg.safety)
                 throttle, brake = self._speed_control(pose, path, speed, dt, v_cap)
         steer = steer_target if steer_target is not None else self.steer_limiter.value
         steer = clip(steer, -self.car.max_steer_rad, self.car.max_steer_rad)

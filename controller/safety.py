@@ -48,6 +48,20 @@ def manoeuvre_ahead_m(manoeuvre: TargetStates, x_m: float, y_m: float) -> float:
     return float(np.sum(seg[nearest:]))
 
 
+def late_stop_distance_m(speed_mps: float, config: SafetyConfig) -> float:
+    """Distance (m) a controlled stop from ``speed_mps`` takes, with the reaction time and the
+    margin a late plan must leave (:class:`SafetyConfig`)."""
+    return (speed_mps * speed_mps / (2.0 * config.stop_decel_mps2)
+            + speed_mps * config.late_plan_reaction_s + config.late_plan_margin_m)
+
+
+def late_plan_speed_mps(room_m: float, config: SafetyConfig) -> float:
+    """The highest speed (m/s) whose :func:`late_stop_distance_m` fits in ``room_m``."""
+    a, t = config.stop_decel_mps2, config.late_plan_reaction_s
+    room = max(room_m - config.late_plan_margin_m, 0.0)
+    return -a * t + math.sqrt((a * t) ** 2 + 2.0 * a * room)
+
+
 class StopKind(enum.IntEnum):
     """How the car must stop now."""
 
@@ -200,7 +214,7 @@ class SafetySupervisor:
             if age > c.plan_max_age_s:
                 return f"plan too old: {age:.3f} s"
             ahead = manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m)
-            need = max(pose.vx_mps, 0.0) ** 2 / (2.0 * c.stop_decel_mps2) + c.late_plan_margin_m
+            need = late_stop_distance_m(max(pose.vx_mps, 0.0), c)
             if ahead < need:
                 return (f"plan too old: {age:.3f} s, its {ahead:.1f} m ahead do not cover a "
                         f"stop ({need:.1f} m)")

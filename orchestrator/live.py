@@ -68,6 +68,11 @@ WORKER_START_TIMEOUT_S = 60.0
 """The executive process must have built its layers within this long."""
 WORKER_STOP_TIMEOUT_S = 30.0
 """At the end it must close its recording and send its statistics within this long."""
+DEFAULT_EXECUTIVE_NICENESS = -10
+"""About nine times the CPU share of a process at the default niceness when the computer is
+busy (a loaded car computer or test machine must not starve the map and the plan)."""
+
+
 DEFAULT_REALTIME_PRIORITY = 10
 """SCHED_FIFO priority of the reactive layer (1..99; a modest one, below the kernel's own
 real-time threads)."""
@@ -91,8 +96,30 @@ class DriveOptions:
     recording_name: str = "recording.mcap"
     realtime_priority: int = DEFAULT_REALTIME_PRIORITY
     """SCHED_FIFO priority of the reactive layer (control loop and CAN receiver); 0: none."""
+    executive_report_grace_s: float = 0.4
+    """How late (s) the executive process's sensor report may be before its sensors count as
+    lost (a report that says a sensor is silent counts at once): a busy computer delays the
+    map and the plan, which the controller rides out, not the sensors."""
+    executive_niceness: int = DEFAULT_EXECUTIVE_NICENESS
+    """Niceness of the executive process (mapping, planning, recording): ahead of the
+    computer's other work, behind the real-time control loop; 0: the default share."""
     live: tuple[str, int] | None = None
     """(host, port) of the Foxglove live view, served by the executive process (``--live``)."""
+
+
+def set_niceness(niceness: int) -> bool:
+    """Give the calling process ``niceness`` (-20..19); False, with a warning, when the
+    system refuses a negative one (it needs root or CAP_SYS_NICE)."""
+    if niceness == 0:
+        return True
+    try:
+        os.setpriority(os.PRIO_PROCESS, 0, niceness)
+    except (OSError, ValueError) as exc:
+        log.warning("niceness %d refused (%s): the executive process shares the CPU equally "
+                    "with the computer's other work", niceness, exc)
+        return False
+    log.info("executive process at niceness %d", niceness)
+    return True
 
 
 def set_realtime_priority(priority: int) -> tuple[int, int] | None:
@@ -133,13 +160,16 @@ def restore_priority(previous: tuple[int, int] | None) -> None:
 
 
 def merge_health(now_s: float, own: Health, remote: Health | None,
-                 remote_sources: Sequence[str], timeouts_s: dict[str, float]) -> Health:
+                 remote_sources: Sequence[str], timeouts_s: dict[str, float],
+                 report_grace_s: float = 0.0) -> Health:
     """One :class:`Health` at ``now_s`` from this process's sources (``own``: CAN and RES)
     and the executive process's (``remote``, measured at ``remote.timestamp_s``).
 
-    The remote sources' ages are advanced to ``now_s`` and their staleness decided again with
-    ``timeouts_s[source]``; a remote source with no report yet is stale. Sources come in the
-    Sensor Manager's order (``res`` after ``can``).
+    The remote sources' ages are advanced to ``now_s``. A source is stale when its age at the
+    report exceeded ``timeouts_s[source]`` (the sensor is silent), or its age now exceeds it
+    by more than ``report_grace_s`` (the report itself is late: a busy executive process is
+    given that long before its sensors count as lost). A remote source with no report yet is
+    stale. Sources come in the Sensor Manager's order (``res`` after ``can``).
     """
     by_source: dict[str, SourceHealth] = {s.source: s for s in own.sources}
     reported = {s.source: s for s in remote.sources} if remote is not None else {}
@@ -150,8 +180,9 @@ def merge_health(now_s: float, own: Health, remote: Health | None,
             by_source[source] = SourceHealth(now_s, source, False, 0.0, math.inf, 0, True)
             continue
         age_s = s.age_s + lag_s
+        stale = s.age_s > timeouts_s[source] or age_s > timeouts_s[source] + report_grace_s
         by_source[source] = SourceHealth(now_s, source, s.alive, s.rate_hz, age_s, s.errors,
-                                         age_s > timeouts_s[source], s.rejects)
+                                         stale, s.rejects)
     order = [name for source in SOURCES for name in
              ((source, "res") if source == "can" else (source,))]
     ordered = [by_source.pop(name) for name in order if name in by_source]
@@ -390,7 +421,8 @@ class LiveMain:
 
     def _health(self, now_s: float) -> Health:
         return merge_health(now_s, self.sensors.health(now_s), self.worker_health,
-                            self.remote_sources, self.timeouts_s)
+                            self.remote_sources, self.timeouts_s,
+                            self.options.executive_report_grace_s)
 
     def _command(self, now_s: float, health: Health) -> ActuatorCommand:
         if self.pose is None:

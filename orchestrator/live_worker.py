@@ -389,6 +389,9 @@ def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     logging.basicConfig(level=log_level,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    from orchestrator.live import set_niceness
+
+    set_niceness(options.executive_niceness)
     link = Link(sock)
     try:
         worker = Worker(config, options, clock, link)

@@ -196,13 +196,13 @@ class TraceSegments:
         return fg.SceneUpdate(entities=[entity])
 
 
-def plan_scene(plan: Plan) -> fg.SceneUpdate:
+def plan_scene(plan: Plan, candidates: bool = True) -> fg.SceneUpdate:
     """The chosen manoeuvre and the baseframe of a plan (entity ``plan``)."""
     lines = []
     if plan.baseframe is not None and len(plan.baseframe.x_m) > 1:
         bf = plan.baseframe
         lines.append(_line(np.column_stack([bf.x_m, bf.y_m]), BASEFRAME_RGBA, 0.05, bf.closed))
-    for index, candidate in enumerate(plan.candidates):
+    for index, candidate in enumerate(plan.candidates if candidates else ()):
         if index != plan.chosen_index and len(candidate) > 1:
             lines.append(_line(np.asarray(candidate), CANDIDATE_RGBA, 0.03, False))
     if len(plan.manoeuvre) > 1:

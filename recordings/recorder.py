@@ -314,7 +314,10 @@ class Recorder:
             if trace is not None:
                 self._write_proto(topics.FOXGLOVE_SCENE, trace, log_ns)
         elif isinstance(message, Plan):
-            self._write_proto(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), log_ns)
+            # the candidates stay in /plan; drawn in the recorded scene they cost the car's
+            # executive process several ms per plan (the live view draws them)
+            self._write_proto(topics.FOXGLOVE_SCENE,
+                              foxglove_views.plan_scene(message, candidates=False), log_ns)
         elif isinstance(message, TrackLayout):
             scene = foxglove_views.track_scene(message, log_ns * 1e-9)
             self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)

@@ -121,7 +121,7 @@ def _register_tune(subparsers: Any, common: argparse.ArgumentParser) -> None:
         help="search planner/controller/filter parameters (Optuna) with runs on Ray; writes "
              "the best setting as a --config TOML")
     tune.add_argument("--space", type=Path, required=True,
-                      help="TOML search space (see config/tune_space.toml)")
+                      help="TOML search space (see scale/tune_space.toml)")
     tune.add_argument("--trials", type=positive_int, default=20,
                       help="trials, the configuration as it is (trial 0) included (default 20)")
     _run_arguments(tune, "1")

@@ -110,6 +110,9 @@ def ray_session(address: str | None = None, num_cpus: int | None = None) -> Iter
     quiet = {"logging_level": logging.ERROR, "log_to_driver": False,
              "configure_logging": True}
     os.environ.setdefault("RAY_ACCEL_ENV_VAR_OVERRIDE_ON_ZERO", "0")
+    # Ray nices its workers (15) by default; here they are the work itself, and niced they
+    # starve beside any busy process (a campaign test took minutes on a loaded machine)
+    os.environ.setdefault("RAY_worker_niceness", "0")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:

@@ -98,9 +98,23 @@ def test_merged_health_ages_the_remote_report_to_now() -> None:
     assert math.isclose(by["imu"].age_s, 0.054) and not by["imu"].stale
     assert math.isclose(by["lidar"].age_s, 0.15) and not by["lidar"].stale
     assert by["can"] is own.sources[0]
-    # the executive process stalls: the same report 80 ms later makes the IMU stale
+    # the executive process stalls: with no grace the same report 80 ms later makes the IMU
+    # stale; with a grace of 0.4 s only once the report is that much later still
     later = merge_health(10.08, own, remote, ("gps", "imu", "lidar", "camera"), TIMEOUTS_S)
     assert later.stale_sources() == ("imu",)
+    graced = merge_health(10.08, own, remote, ("gps", "imu", "lidar", "camera"), TIMEOUTS_S,
+                          report_grace_s=0.4)
+    assert graced.stale_sources() == ()
+    lost = merge_health(10.5, own, remote, ("gps", "imu", "lidar", "camera"), TIMEOUTS_S,
+                        report_grace_s=0.4)
+    assert "imu" in lost.stale_sources()
+
+
+def test_a_report_that_a_sensor_is_silent_counts_at_once_whatever_the_grace() -> None:
+    own = Health(10.0, (_source(10.0, "can", 0.004), _source(10.0, "res", 0.05)))
+    remote = Health(10.0, (_source(10.0, "imu", 0.5), _source(10.0, "lidar", 0.05)))
+    merged = merge_health(10.0, own, remote, ("imu", "lidar"), TIMEOUTS_S, report_grace_s=0.4)
+    assert merged.stale_sources() == ("imu",)
 
 
 def test_merged_health_before_any_report_is_stale() -> None:

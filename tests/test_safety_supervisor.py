@@ -187,8 +187,8 @@ def test_a_late_plan_that_covers_a_stop_is_followed_not_stopped_for() -> None:
 
 
 def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
-    """At 10 m/s a controlled stop (6 m/s^2) takes 8.3 m, plus the 1 m margin: a late plan
-    with 5 m of manoeuvre left ahead of the car ends the run."""
+    """At 10 m/s a controlled stop (6 m/s^2) takes 8.3 m, plus 0.2 s of reaction (2 m) and
+    the 0.2 m margin: a late plan with 5 m of manoeuvre left ahead of the car ends the run."""
     ctrl = driving_controller()
     late = straight_plan(0.02)
     t = 0.4
@@ -198,10 +198,16 @@ def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
 
 
 def test_a_late_plan_caps_the_speed_to_what_its_manoeuvre_lets_the_car_stop_in() -> None:
-    """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 12.5 m/s (a stop
-    takes 13 m plus the margin: covered): fresh, the car accelerates toward 20 m/s; late,
-    toward no more than sqrt(2 x 6 x (15 - 1)) = 13 m/s, the speed from which a controlled stop
-    ends within the manoeuvre: less throttle."""
+    """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 11 m/s (a stop
+    takes 10.1 m, 2.2 m of reaction and the 0.2 m margin: covered): fresh, the car accelerates
+    toward 20 m/s; late, toward no more than 12.2 m/s, the speed from which a controlled stop
+    with its reaction ends within the manoeuvre: less throttle."""
+    from controller.safety import late_plan_speed_mps, late_stop_distance_m
+
+    safety = AppConfig().controller.safety
+    v_cap = late_plan_speed_mps(15.0, safety)
+    assert v_cap == pytest.approx(12.18, abs=0.01)
+    assert late_stop_distance_m(v_cap, safety) == pytest.approx(15.0)
     from controller.safety import manoeuvre_ahead_m
 
     plan = straight_plan(0.0, speed=20.0)
@@ -214,7 +220,7 @@ def test_a_late_plan_caps_the_speed_to_what_its_manoeuvre_lets_the_car_stop_in()
         made = straight_plan(0.02 if late else t, speed=20.0)
         for k in range(5):
             now = t + 0.01 * k
-            cmd = ctrl.command(now, pose(now, x=284.5, v=12.5), made, health(now), None)
+            cmd = ctrl.command(now, pose(now, x=284.5, v=11.0), made, health(now), None)
         assert ctrl.safety.stop == StopKind.NONE
         throttles.append(cmd.throttle - cmd.brake)
     assert throttles[1] < throttles[0]

@@ -18,7 +18,7 @@ from scale.tune import current_value, load_space, score, write_override
 from support.shared_data import shared_data
 
 ROOT = Path(main.__file__).parent
-EXAMPLE_SPACE = ROOT / "config" / "tune_space.toml"
+EXAMPLE_SPACE = ROOT / "scale" / "tune_space.toml"
 
 
 def test_example_space_loads_and_contains_the_defaults() -> None:
