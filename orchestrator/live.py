@@ -60,6 +60,7 @@ from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import control_sensors, worker_main
 from orchestrator.main_loop import StageTimes
 from orchestrator.managers import make_controller, make_sensors
+from orchestrator.priority import DEFAULT_EXECUTIVE_NICENESS
 from sensors.manager import SOURCES
 
 log = logging.getLogger(__name__)
@@ -68,11 +69,6 @@ WORKER_START_TIMEOUT_S = 60.0
 """The executive process must have built its layers within this long."""
 WORKER_STOP_TIMEOUT_S = 30.0
 """At the end it must close its recording and send its statistics within this long."""
-DEFAULT_EXECUTIVE_NICENESS = -10
-"""About nine times the CPU share of a process at the default niceness when the computer is
-busy (a loaded car computer or test machine must not starve the map and the plan)."""
-
-
 DEFAULT_REALTIME_PRIORITY = 10
 """SCHED_FIFO priority of the reactive layer (1..99; a modest one, below the kernel's own
 real-time threads)."""
@@ -105,21 +101,6 @@ class DriveOptions:
     computer's other work, behind the real-time control loop; 0: the default share."""
     live: tuple[str, int] | None = None
     """(host, port) of the Foxglove live view, served by the executive process (``--live``)."""
-
-
-def set_niceness(niceness: int) -> bool:
-    """Give the calling process ``niceness`` (-20..19); False, with a warning, when the
-    system refuses a negative one (it needs root or CAP_SYS_NICE)."""
-    if niceness == 0:
-        return True
-    try:
-        os.setpriority(os.PRIO_PROCESS, 0, niceness)
-    except (OSError, ValueError) as exc:
-        log.warning("niceness %d refused (%s): the executive process shares the CPU equally "
-                    "with the computer's other work", niceness, exc)
-        return False
-    log.info("executive process at niceness %d", niceness)
-    return True
 
 
 def set_realtime_priority(priority: int) -> tuple[int, int] | None:

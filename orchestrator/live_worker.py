@@ -55,6 +55,7 @@ from orchestrator.config import AppConfig
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
+from orchestrator.priority import set_niceness
 from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
 from sensors.config import SensorsConfig
 
@@ -389,8 +390,6 @@ def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     logging.basicConfig(level=log_level,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    from orchestrator.live import set_niceness
-
     set_niceness(options.executive_niceness)
     link = Link(sock)
     try:

@@ -42,6 +42,10 @@ IDLE_END_S = 2.0
 """After the handover, standing still with no actuator frames for this long ends the run."""
 
 
+STACK_DRIVES_MPS = 2.0
+"""Above this speed after the handover the stack drives the car (logged once: a sign for the
+person at the track side, and for tests, that the car is moving under the stack)."""
+
 @dataclass
 class EmulatorOptions:
     """``emulate`` options."""
@@ -107,6 +111,7 @@ class HardwareEmulator:
         """When the actuator frames stopped while the stack drove: time (s), speed (m/s), and
         once the car stood, the stop's time (s) and distance (m)."""
         self._watchdog_xy = (0.0, 0.0)
+        self._stack_drove = False
         self.final_speed_mps = 0.0
 
     # ------------------------------------------------------------------ config for `drive`
@@ -233,6 +238,10 @@ class HardwareEmulator:
         """Record the first time the watchdog brakes a car the stack was driving, and its stop."""
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         self.final_speed_mps = speed
+        if (not self._stack_drove and self.person.phase == Phase.AUTONOMOUS
+                and speed > STACK_DRIVES_MPS):
+            self._stack_drove = True
+            log.info("the stack drives the car: %.1f m/s at t=%.2f s", speed, t_s)
         stale = t_s - self.last_command_wall_s > ACTUATOR_TIMEOUT_S
         if (self.watchdog_stop is None and stale and self.ever_commanded
                 and self.person.phase == Phase.AUTONOMOUS):
