@@ -45,8 +45,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _sim(track: str, seed: int, laps: int, config_file: str | None) -> dict[str, Any]:
     """One ``main.py sim --json`` run; its summary (``error`` set when it failed)."""
+    # the person's exploration lap: the SLAM maps it, the UKF localises on the laps after it
     cmd = [sys.executable, str(ROOT / "main.py"), "sim", "--track", track, "--seed", str(seed),
-           "--laps", str(laps), "--no-render", "--no-record", "--json"]
+           "--laps", str(laps), "--exploration", "manual", "--no-render", "--no-record",
+           "--json"]
     if config_file:
         cmd += ["--config", config_file]
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, check=False)
