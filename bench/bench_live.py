@@ -85,34 +85,20 @@ def _client(port: int, mode: str, ready: Any, stop: Any) -> None:
 
 def _loop_periods(seconds: float, server: Any) -> np.ndarray:
     """Periods (ms) of a 100 Hz loop writing what Main writes to the live server."""
-    from bench.bench_render import synthetic_scene
+    from bench.bench_render import paced_loop_periods_ms, synthetic_scene
     from recordings import topics
 
     scenes = [synthetic_scene(0.1 * k) for k in range(10)]
-    work = np.random.default_rng(1).normal(size=(60, 60))
-    period = 0.01
-    periods = []
-    next_t = time.perf_counter()
-    last = next_t
-    end = next_t + seconds
-    k = 0
-    while next_t < end:
-        next_t += period
-        delay = next_t - time.perf_counter()
-        if delay > 0:
-            time.sleep(delay)
-        now = time.perf_counter()
-        periods.append(now - last)
-        last = now
-        np.linalg.cholesky(work @ work.T + np.eye(60))
+
+    def tick(k: int) -> None:
         map_state, plan, command = scenes[(k // 10) % 10]
         t_s = 0.01 * k
         server.write(topics.COMMAND, command, t_s)
         if k % 10 == 0:
             server.write(topics.MAP_STATE, map_state, t_s)
             server.write(topics.PLAN, plan, t_s)
-        k += 1
-    return np.asarray(periods[1:]) * 1e3
+
+    return paced_loop_periods_ms(seconds, tick)
 
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:

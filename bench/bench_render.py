@@ -7,6 +7,7 @@ import argparse
 import math
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -63,10 +64,10 @@ def synthetic_scene(t_s: float, n_cones: int = 300) -> tuple[MapState, Plan, Act
     return MapState(t_s, pose, cones, True, "bench"), plan, ActuatorCommand(t_s, 0.3, 0.0, 0.1)
 
 
-def _loop_periods(seconds: float, visualiser: object | None) -> np.ndarray:
-    """A 100 Hz loop with a little numpy work per tick; submits a frame every 10 ticks."""
+def paced_loop_periods_ms(seconds: float, on_tick: Callable[[int], None]) -> np.ndarray:
+    """Periods (ms) of a 100 Hz loop run for ``seconds`` that does a little numpy work per
+    tick (a stand-in for the control loop), then ``on_tick(k)`` for tick ``k``."""
     period = 0.01
-    scenes = [synthetic_scene(0.1 * k) for k in range(10)]
     work = np.random.default_rng(1).normal(size=(60, 60))
     periods = []
     next_t = time.perf_counter()
@@ -82,10 +83,20 @@ def _loop_periods(seconds: float, visualiser: object | None) -> np.ndarray:
         periods.append(now - last)
         last = now
         np.linalg.cholesky(work @ work.T + np.eye(60))
-        if visualiser is not None and k % 10 == 0:
-            visualiser.submit(*scenes[(k // 10) % 10])  # type: ignore[attr-defined]
+        on_tick(k)
         k += 1
     return np.asarray(periods[1:]) * 1e3
+
+
+def _loop_periods(seconds: float, visualiser: object | None) -> np.ndarray:
+    """The paced loop submitting a frame every 10 ticks."""
+    scenes = [synthetic_scene(0.1 * k) for k in range(10)]
+
+    def tick(k: int) -> None:
+        if visualiser is not None and k % 10 == 0:
+            visualiser.submit(*scenes[(k // 10) % 10])  # type: ignore[attr-defined]
+
+    return paced_loop_periods_ms(seconds, tick)
 
 
 def run(args: argparse.Namespace, config: AppConfig) -> int:
