@@ -101,6 +101,10 @@ class PlannerConfig:
     """While exploring, a loop found in the cones is the track only when it passes this near
     the start (m): a loop of part of the track (one lobe of a figure-like layout, closed
     through another stretch's cones) is not."""
+    loop_unseen_max_m: float = 15.0
+    """While exploring, a loop found in the cones is the track only when the car has driven
+    all but this much of its length (m): earlier, a loop through cones seen across the track
+    (a narrow waist, an infield) cuts a bend whose outer side is not mapped yet."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     fallback_speed_mps: float = 4.0

@@ -1,13 +1,16 @@
 """The path ahead through an unseen track, from the cones mapped so far (autonomous exploration).
 
-Gate marching, after FaSTTUBe's ft-fsd-path-planning in spirit (written here from scratch): from
-the car, look ahead along the current heading for the nearest cone on each side of the track
+First the chain of gates a search over the cones' Delaunay triangulation finds from the car
+(:mod:`planner.gate_search`): it never crosses a boundary to reach a cone of another stretch
+of track. Where it ends (one side not seen yet, a corner hides it), gate marching goes on,
+after FaSTTUBe's ft-fsd-path-planning in spirit (written here from scratch): from the last
+point, look ahead along the current heading for the nearest cone on each side of the track
 (blue on the left, yellow on the right; a cone of unknown or orange colour on the side it lies);
 the next path point is the middle of that gate, or half a nominal track width inside a cone
-when the other side is not seen (a corner hides it). Step to it, turn, repeat until no cone is
-ahead. Cones used for a gate are not used again; a cone far beside the path (more than a track
-width) is not a boundary. The path ends where the known track ends: the speed profile brakes
-to a stop there, so the car never outruns what it has seen.
+when the other side is not seen. Step to it, turn, repeat until no cone is ahead. Cones used
+for a gate are not used again; a cone far beside the path (more than a track width) is not a
+boundary. The path ends where the known track ends: the speed profile brakes to a stop there,
+so the car never outruns what it has seen.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
+from planner.gate_search import gate_search_path
 
 FloatArray = NDArray[np.float64]
 
@@ -67,8 +71,17 @@ def exploration_path(
     yaw = float(start_yaw_rad)
     points = [point.copy()]
     unused = np.ones(len(xy), bool)
+    searched, bounding = gate_search_path(xy, col, point, yaw, track_width_m, behind_m)
+    if len(searched) >= 3:
+        # the triangulation's gates as far as both sides are known; marched on beyond
+        points = [p.copy() for p in searched]
+        point = searched[-1].copy()
+        step = searched[-1] - searched[-2]
+        yaw = math.atan2(step[1], step[0])
+        unused &= ~bounding
+        behind_m = -0.3
     half = 0.5 * track_width_m
-    for k in range(max_points):
+    for k in range(max_points - len(points) + 1):
         gate = _next_gate(xy, col, unused, point, yaw, look_ahead_m, track_width_m,
                           behind_m if k == 0 else -0.3)
         if gate is None:

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from common.car import CarConfig
 from common.errors import TrackError
 from common.messages import Baseframe, ConeColour, MapState, Plan, TargetStates
+from common.polyline import polyline_length
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
@@ -199,6 +200,12 @@ class PathPlanner:
                 and _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
             self.rejects["loop_misses_start"] += 1
             logger.debug("a loop in the cones that misses the start: still exploring")
+            closed = False
+        if closed and self._origin_xy is not None and self._explored_m \
+                < polyline_length(pts, True) - c.loop_unseen_max_m:
+            self.rejects["loop_ahead_unseen"] += 1
+            logger.debug("a loop in the cones %.0f m long after %.0f m driven: still exploring",
+                         polyline_length(pts, True), self._explored_m)
             closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known

@@ -1,0 +1,296 @@
+"""The centre path through the cones ahead, searched over a Delaunay triangulation of them.
+
+The classic Formula Student local planner (AMZ's, among others; written here from scratch): a
+triangulation of the mapped cones (scipy's Delaunay) tiles the track with triangles whose edges
+from one boundary to the other are the track's gates. A path through the track crosses a chain
+of such edges, entering each triangle by one edge and leaving it by one of the other two, so the
+candidate paths form a binary tree searched with a beam: an edge may be crossed when it is as
+long as a gate can be and does not join two cones of one side (blue-blue, yellow-yellow), and
+blue must then lie on its left and yellow on its right. Each path is scored by its length
+against its bends, its gates' departure from the nominal width and its cones of unknown colour;
+the best path's gates give its centre points (one per cone pair, see :func:`_centre_points`).
+
+Why a search rather than a march from gate to gate: where two stretches of track run side by
+side (a hairpin, a narrow infield) the nearest cone ahead may belong to the other stretch; a
+path must cross a boundary edge to reach it, which the search never does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import Delaunay, QhullError
+
+from common.messages import ConeColour
+from common.polyline import nearest_on_polyline
+
+FloatArray = NDArray[np.float64]
+
+BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+
+MIN_GATE_M = 1.9
+"""Shortest edge that is a gate (m): the FSD minimum track width is 3 m between the cones'
+inner sides; two cones of one side stand closer in a tight bend."""
+MAX_GATE_WIDTHS = 2.2
+"""Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
+MAX_TURN_RAD = 1.2
+"""Largest change of heading from one midpoint to the next."""
+SEARCH_RADIUS_M = 30.0
+"""Cones further from the car than this are not triangulated."""
+BEAM = 16
+"""Partial paths kept at each depth of the search."""
+MAX_DEPTH = 24
+"""Most gates in one path."""
+MERGE_M = 1.0
+"""Centre points nearer than this (m) are one (the two cones of a square gate)."""
+
+TURN_COST_PER_RAD2 = 4.0
+WIDTH_COST = 2.0
+UNKNOWN_COST = 0.25
+LENGTH_REWARD_PER_M = 1.0
+SKIP_COST_PER_M = 1.0
+
+
+@dataclass(frozen=True)
+class _Partial:
+    points: tuple[tuple[float, float], ...]
+    triangle: int
+    entry: tuple[int, int]
+    yaw_rad: float
+    cost: float
+    triangles: frozenset[int]
+    gates: tuple[tuple[int, int], ...]
+    """(left cone, right cone) of each gate crossed, in order."""
+    done: bool = False
+
+
+def gate_search_path(
+    xy: FloatArray, col: NDArray[np.int64], start_xy_m: FloatArray, start_yaw_rad: float,
+    track_width_m: float, behind_m: float = 0.0,
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """The best chain of gates from the car: path points (K, 2) (m, world frame; the first is
+    the car, or with ``behind_m`` > 0 the midpoint of the car's gate when it is at most that far
+    behind) and a mask (N,) of the cones ``xy`` (N, 2) of colours ``col`` (N,) that bound it
+    (but for its last gate's).
+    K = 1 when there is no gate ahead."""
+    start = np.asarray(start_xy_m, np.float64)
+    used = np.zeros(len(xy), bool)
+    nothing = (start[None, :].copy(), used)
+    rel = xy - start
+    c, s = math.cos(start_yaw_rad), math.sin(start_yaw_rad)
+    ahead = rel[:, 0] * c + rel[:, 1] * s
+    near = np.flatnonzero((np.hypot(rel[:, 0], rel[:, 1]) < SEARCH_RADIUS_M) & (ahead > -8.0))
+    if len(near) < 3:
+        return nothing
+    try:
+        tri = Delaunay(xy[near])
+    except (QhullError, ValueError):
+        return nothing
+    search = _Search(xy[near], col[near], tri, track_width_m)
+    seeds = search.seeds(start, start_yaw_rad, behind_m)
+    best = search.run(seeds)
+    if best is None or len(best.points) < 2:
+        return nothing
+    # the last gate's cones stay free: the march beyond pairs them with the next ones
+    bounding = sorted({i for gate in best.gates[:-1] for i in gate} - set(best.gates[-1]))
+    used[near[bounding]] = True
+    points = [np.asarray(best.points[0], np.float64)]
+    if best.points[0] != (float(start[0]), float(start[1])):
+        points = []  # the path starts at the gate behind the car
+    points.extend(_centre_points(xy[near], best.gates))
+    return np.asarray(points, np.float64), used
+
+
+def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...]) -> list[FloatArray]:
+    """One centre point per gate: the first gate's middle, then for each gate the middle
+    between the cone it adds and the other side's boundary (its polyline through that side's
+    cones in order). A diagonal gate's own middle lies off the centre in a bend, and
+    alternating with square gates it would put a wiggle into the path's curvature."""
+    lefts = list(dict.fromkeys(g[0] for g in gates))
+    rights = list(dict.fromkeys(g[1] for g in gates))
+    points = [0.5 * (xy[gates[0][0]] + xy[gates[0][1]])]
+    seen = {gates[0][0], gates[0][1]}
+    for left, right in gates[1:]:
+        if left not in seen:
+            new, other = left, rights
+        elif right not in seen:
+            new, other = right, lefts
+        else:
+            continue
+        seen.add(new)
+        other_xy = xy[other]
+        foot = other_xy[0] if len(other_xy) == 1 else \
+            nearest_on_polyline(xy[new][None, :], other_xy, False)[3][0]
+        point = 0.5 * (xy[new] + foot)
+        if math.hypot(*(point - points[-1])) < MERGE_M:
+            # a left cone and a right one abreast: one gate, one point
+            points[-1] = 0.5 * (points[-1] + point)
+        else:
+            points.append(point)
+    return points
+
+
+class _Search:
+    """The beam search over one triangulation (cone indices local to it)."""
+
+    def __init__(self, xy: FloatArray, col: NDArray[np.int64], tri: Delaunay,
+                 track_width_m: float) -> None:
+        self.xy = xy
+        self.col = col
+        self.simplices: NDArray[np.int32] = tri.simplices
+        self.neighbours: NDArray[np.int32] = tri.neighbors
+        self.width_m = track_width_m
+        self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
+
+    # -- gates ---------------------------------------------------------------------------
+    def _gate_cost(self, a: int, b: int, from_xy: FloatArray
+                   ) -> tuple[float, FloatArray, tuple[int, int]] | None:
+        """Cost of crossing edge (a, b) from ``from_xy`` towards its midpoint, the midpoint and
+        the edge as (left cone, right cone); None when it is not a gate."""
+        pa, pb = self.xy[a], self.xy[b]
+        length = float(math.hypot(*(pa - pb)))
+        if not MIN_GATE_M <= length <= self.max_gate_m:
+            return None
+        ca, cb = int(self.col[a]), int(self.col[b])
+        if ca == cb and ca in (BLUE, YELLOW):
+            return None
+        mid = 0.5 * (pa + pb)
+        d = mid - from_xy
+        # which end is on the left of the direction of travel
+        side_a = d[0] * (pa[1] - mid[1]) - d[1] * (pa[0] - mid[0])
+        left, right = (a, b) if side_a > 0.0 else (b, a)
+        if int(self.col[left]) == YELLOW or int(self.col[right]) == BLUE:
+            return None
+        cost = WIDTH_COST * ((length - self.width_m) / self.width_m) ** 2
+        cost += UNKNOWN_COST * sum(x not in (BLUE, YELLOW) for x in (ca, cb))
+        return cost, mid, (left, right)
+
+    def _containing_triangle(self, point: FloatArray) -> int:
+        """Index of the triangle that contains ``point`` (2,), -1 for none (the same sign
+        test on all three edges; Delaunay.find_simplex computes barycentric transforms with
+        LAPACK, which a multithreaded BLAS on a busy machine made take seconds)."""
+        v = self.xy[self.simplices]  # (T, 3, 2)
+        e = np.roll(v, -1, axis=1) - v
+        r = point[None, None, :] - v
+        cross = e[:, :, 0] * r[:, :, 1] - e[:, :, 1] * r[:, :, 0]
+        inside = np.all(cross >= 0.0, axis=1) | np.all(cross <= 0.0, axis=1)
+        hits = np.flatnonzero(inside)
+        return int(hits[0]) if len(hits) else -1
+
+    # -- seeds ---------------------------------------------------------------------------
+    def seeds(self, start: FloatArray, yaw: float, behind_m: float) -> list[_Partial]:
+        """The search's first partial paths: in the car's triangle (entered by its edge behind
+        the car), or through the gates ahead of a car outside the triangulation."""
+        c, s = math.cos(yaw), math.sin(yaw)
+        t0 = self._containing_triangle(start)
+        out: list[_Partial] = []
+        origin = (float(start[0]), float(start[1]))
+        if t0 >= 0:
+            tri = self.simplices[t0]
+            entry = None
+            if behind_m > 0.0:
+                # the car's gate behind it: the path starts there (a car off the middle sees
+                # its offset instead of a path through itself)
+                best_ahead = 0.3
+                for k in range(3):
+                    a, b = int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
+                    gate = self._gate_cost(a, b, start - 2.0 * np.array([c, s]))
+                    if gate is None:
+                        continue
+                    mid = gate[1]
+                    ahead = float((mid - start) @ np.array([c, s]))
+                    if -behind_m <= ahead < best_ahead:
+                        best_ahead, entry = ahead, ((a, b), mid, gate[2])
+            if entry is not None:
+                (a, b), mid, sides = entry
+                out.append(_Partial(((float(mid[0]), float(mid[1])),), t0, (a, b), yaw, 0.0,
+                                    frozenset([t0]), (sides,)))
+            else:
+                out.append(_Partial((origin,), t0, (-1, -1), yaw, 0.0, frozenset([t0]), ()))
+            return out
+        for t, tri in enumerate(self.simplices):
+            for k in range(3):
+                # edges ahead that face the car: the triangle beyond lies on their far side
+                a, b = int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
+                pa, pb, pc = self.xy[a], self.xy[b], self.xy[int(tri[k])]
+                edge = pb - pa
+                car_side = edge[0] * (start[1] - pa[1]) - edge[1] * (start[0] - pa[0])
+                far_side = edge[0] * (pc[1] - pa[1]) - edge[1] * (pc[0] - pa[0])
+                if car_side * far_side >= 0.0:
+                    continue
+                gate = self._gate_cost(a, b, start)
+                if gate is None:
+                    continue
+                cost, mid, sides = gate
+                rel = mid - start
+                ahead = float(rel[0] * c + rel[1] * s)
+                lateral = float(-rel[0] * s + rel[1] * c)
+                if not 0.3 < ahead < 10.0 or abs(lateral) > self.width_m:
+                    continue
+                step_yaw = math.atan2(rel[1], rel[0])
+                turn = abs(math.remainder(step_yaw - yaw, 2.0 * math.pi))
+                if turn > MAX_TURN_RAD:
+                    continue
+                out.append(_Partial(
+                    (origin, (float(mid[0]), float(mid[1]))), t, (a, b), step_yaw,
+                    cost + TURN_COST_PER_RAD2 * turn ** 2, frozenset([t]), (sides,)))
+        # the way to the first gate earns nothing, and a path that starts at a gate further on
+        # than the nearest pays for the way it skips (it would save the nearer gates' costs)
+        reach = [math.hypot(p.points[1][0] - origin[0], p.points[1][1] - origin[1]) for p in out]
+        nearest = min(reach, default=0.0)
+        return [replace(p, cost=p.cost + SKIP_COST_PER_M * (r - nearest))
+                for p, r in zip(out, reach, strict=True)]
+
+    # -- search --------------------------------------------------------------------------
+    def _expand(self, p: _Partial) -> list[_Partial]:
+        tri = [int(v) for v in self.simplices[p.triangle]]
+        here = np.asarray(p.points[-1], np.float64)
+        out = []
+        for k in range(3):
+            a, b = tri[(k + 1) % 3], tri[(k + 2) % 3]
+            if {a, b} == set(p.entry):
+                continue
+            gate = self._gate_cost(a, b, here)
+            if gate is None:
+                continue
+            cost, mid, sides = gate
+            if any(sides[0] == g[1] or sides[1] == g[0] for g in p.gates):
+                continue  # a cone keeps its side: no gate along a boundary
+            step = mid - here
+            length = float(math.hypot(*step))
+            step_yaw = math.atan2(step[1], step[0]) if length > 0.3 else p.yaw_rad
+            turn = abs(math.remainder(step_yaw - p.yaw_rad, 2.0 * math.pi))
+            if turn > MAX_TURN_RAD:
+                continue
+            nxt = int(self.neighbours[p.triangle][k])
+            if nxt in p.triangles:
+                continue
+            out.append(_Partial(
+                p.points + ((float(mid[0]), float(mid[1])),), nxt, (a, b), step_yaw,
+                p.cost + cost + TURN_COST_PER_RAD2 * turn ** 2 - LENGTH_REWARD_PER_M * length,
+                p.triangles | {nxt}, p.gates + (sides,), done=nxt == -1))
+        return out
+
+    def run(self, seeds: list[_Partial]) -> _Partial | None:
+        """The lowest-cost path found (the longest, straightest, best-gated)."""
+        frontier = [p for p in seeds if not p.done]
+        finished = list(seeds)
+        for _ in range(MAX_DEPTH):
+            children: list[_Partial] = []
+            for p in frontier:
+                kids = self._expand(p)
+                children.extend(kids)
+                if not kids:
+                    finished.append(p)
+            if not children:
+                break
+            children.sort(key=lambda q: q.cost)
+            frontier = [q for q in children[:BEAM] if not q.done]
+            finished.extend(q for q in children[:BEAM] if q.done)
+        finished.extend(frontier)
+        if not finished:
+            return None
+        return min(finished, key=lambda q: q.cost)

@@ -1,0 +1,121 @@
+"""The gate search over the cones' triangulation: it keeps to the car's own stretch of track
+where another stretch runs close beside it, and it goes round a hairpin."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.messages import ConeColour
+from common.polyline import nearest_on_polyline, resample
+from planner.exploration_path import exploration_path
+from planner.gate_search import gate_search_path
+
+BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+UNKNOWN = int(ConeColour.UNKNOWN)
+HALF_WIDTH_M = 1.75
+
+
+def _offset(centre: np.ndarray, offset_m: float) -> np.ndarray:
+    """The polyline ``centre`` (N, 2) moved ``offset_m`` to its left."""
+    d = np.gradient(centre, axis=0)
+    d /= np.hypot(d[:, 0], d[:, 1])[:, None]
+    return centre + offset_m * np.c_[-d[:, 1], d[:, 0]]
+
+
+def _lane_turning_left() -> np.ndarray:
+    """A lane's centreline from the origin along +x for 12 m, then a 60 degree left bend of
+    8 m radius, then straight on (m)."""
+    straight = np.c_[np.linspace(0.0, 12.0, 25), np.zeros(25)]
+    a = np.linspace(0.0, np.pi / 3.0, 30)[1:]
+    bend = np.c_[12.0 + 8.0 * np.sin(a), 8.0 - 8.0 * np.cos(a)]
+    out = bend[-1] + np.linspace(0.0, 10.0, 21)[1:, None] * np.array([np.cos(a[-1]),
+                                                                          np.sin(a[-1])])
+    return resample(np.r_[straight, bend, out], 0.1, False)
+
+
+def _cones_along(line: np.ndarray, spacing_m: float, first_m: float = 1.0) -> np.ndarray:
+    step = line[1] - line[0]
+    n = int(round(spacing_m / float(np.hypot(*step))))
+    return line[int(round(first_m / float(np.hypot(*step))))::n]
+
+
+def _thin_infield() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The car's lane turning left, and the inner (yellow) boundary of another stretch of
+    track running straight on 1.6 m beside its yellow side (an infield like the community
+    layout 'thin'): cones (N, 2), colours (N,) and the lane's centreline."""
+    centre = _lane_turning_left()
+    left = _cones_along(_offset(centre, HALF_WIDTH_M), 4.0)
+    right = _cones_along(_offset(centre, -HALF_WIDTH_M), 4.0, first_m=3.0)
+    x = np.arange(2.0, 32.0, 4.0)
+    other = np.c_[x, np.full(len(x), -HALF_WIDTH_M - 1.6)]
+    cones = np.r_[left, right, other]
+    colours = np.r_[np.full(len(left), BLUE), np.full(len(right) + len(other), YELLOW)]
+    return cones, colours, centre
+
+
+def test_the_search_keeps_to_its_own_stretch_beside_another() -> None:
+    cones, colours, centre = _thin_infield()
+    path, bounding = gate_search_path(cones, colours, np.zeros(2), 0.0, 2.0 * HALF_WIDTH_M)
+    assert len(path) >= 8
+    distance, _, _, _ = nearest_on_polyline(path, centre, False)
+    assert np.all(distance < 0.35)
+    # it follows the lane round its bend, and never pairs with the other stretch's cones
+    assert path[-1, 1] > 8.0
+    n_lane = len(cones) - 8
+    assert not bounding[n_lane:].any()
+
+
+def test_exploration_path_follows_the_lane_past_the_other_stretch() -> None:
+    cones, colours, centre = _thin_infield()
+    path = exploration_path(cones, colours, (0.0, 0.0), 0.0, track_width_m=2.0 * HALF_WIDTH_M)
+    distance, _, _, _ = nearest_on_polyline(path, centre, False)
+    assert path[-1, 1] > 8.0
+    assert np.all(distance < 0.5)
+
+
+def test_the_search_goes_round_a_hairpin() -> None:
+    """The rules' tightest hairpin: 4.5 m outer radius, 3 m wide, so the inner side is a
+    1.5 m radius arc of a few cones: the path rounds it on the centreline (3 m radius)."""
+    a = np.linspace(-np.pi / 2.0, np.pi / 2.0, 13)
+    centre_arc = np.c_[10.0 + 3.0 * np.cos(a), 3.0 + 3.0 * np.sin(a)]
+    entry = np.c_[np.linspace(0.0, 10.0, 21)[:-1], np.zeros(20)]
+    exit_ = np.c_[np.linspace(10.0, 0.0, 21)[1:], np.full(20, 6.0)]
+    centre = resample(np.r_[entry, centre_arc, exit_], 0.1, False)
+    outer = np.r_[np.c_[np.arange(1.0, 10.0, 3.0), np.full(3, -1.5)],
+                  np.c_[10.0 + 4.5 * np.cos(a[::2]), 3.0 + 4.5 * np.sin(a[::2])],
+                  np.c_[np.arange(9.0, 0.0, -3.0), np.full(3, 7.5)]]
+    inner = np.r_[np.c_[np.arange(1.0, 10.0, 3.0), np.full(3, 1.5)],
+                  np.c_[10.0 + 1.5 * np.cos(a[::4]), 3.0 + 1.5 * np.sin(a[::4])],
+                  np.c_[np.arange(9.0, 0.0, -3.0), np.full(3, 4.5)]]
+    # a left hairpin: the inner cones are the left (blue) side
+    cones = np.r_[inner, outer]
+    colours = np.r_[np.full(len(inner), BLUE), np.full(len(outer), YELLOW)]
+    path, _ = gate_search_path(cones, colours, np.zeros(2), 0.0, 3.0)
+    distance, _, _, _ = nearest_on_polyline(path, centre, False)
+    assert path[-1, 1] > 5.0 and path[-1, 0] < 8.0  # round the hairpin and out of it
+    assert np.all(distance < 0.6)
+
+
+def test_no_gate_ahead_is_the_car_alone() -> None:
+    cones = np.array([[5.0, 1.75], [9.0, 1.75], [13.0, 1.75]])
+    path, bounding = gate_search_path(cones, np.full(3, BLUE), np.zeros(2), 0.0, 3.5)
+    assert path.shape == (1, 2) and not bounding.any()
+
+
+def test_without_colours_a_cone_keeps_its_side() -> None:
+    """Camera dead: every cone of unknown colour. Two cones of one boundary (4 m apart) would
+    make a gate of about the track's width; a cone once on the path's right stays on its right,
+    so the path still keeps to its lane and round its bend."""
+    cones, _, centre = _thin_infield()
+    unknown = np.full(len(cones), UNKNOWN)
+    path, _ = gate_search_path(cones, unknown, np.zeros(2), 0.0, 2.0 * HALF_WIDTH_M)
+    distance, _, _, _ = nearest_on_polyline(path, centre, False)
+    assert path[-1, 1] > 8.0
+    assert np.all(distance < 0.35)
+
+
+def test_same_coloured_cones_are_never_a_gate() -> None:
+    cones, _, _ = _thin_infield()
+    path_blue, _ = gate_search_path(cones, np.full(len(cones), BLUE), np.zeros(2), 0.0,
+                                    2.0 * HALF_WIDTH_M)
+    assert len(path_blue) == 1
