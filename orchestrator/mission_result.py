@@ -76,7 +76,8 @@ def skidpad_min_laps_s(track: Track, car: CarConfig, inner_diameter_m: float = 1
     for name, sign in (("right", -1.0), ("left", 1.0)):
         side = (xy[:, 1] - gate[1]) * sign > 0.0
         pts = xy[side & ~big]
-        centre, _ = fit_centre(pts, gate + np.array([0.0, sign * r_mid]), (r_in, r_in + lane_width_m))
+        centre, _ = fit_centre(pts, gate + np.array([0.0, sign * r_mid]),
+                               (r_in, r_in + lane_width_m))
         dist = np.hypot(*(pts - centre).T)
         inner = dist[np.abs(dist - r_in) < 1.0]
         outer = dist[np.abs(dist - r_in - lane_width_m) < 1.0]

@@ -30,8 +30,8 @@ from common.messages import ActuatorCommand, AsState
 from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig, apply_mission
 from orchestrator.main_loop import Main
-from orchestrator.mission_result import mission_result, mission_timer
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
+from orchestrator.mission_result import mission_result, mission_timer
 from orchestrator.outputs import HashSink, start_live
 from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog

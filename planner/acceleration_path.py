@@ -22,9 +22,9 @@ from planner.mission_path import (
     FloatArray,
     MissionPath,
     big_cone_mask,
-    path_end_m,
     from_axis_frame,
     lane_end_along_m,
+    path_end_m,
     straight_points,
     to_axis_frame,
 )

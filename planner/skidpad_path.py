@@ -27,9 +27,9 @@ from planner.mission_path import (
     FloatArray,
     MissionPath,
     big_cone_mask,
-    path_end_m,
     from_axis_frame,
     lane_end_along_m,
+    path_end_m,
     straight_points,
     to_axis_frame,
 )
@@ -146,7 +146,7 @@ def skidpad_path(
                                centre[1] + r_mid * np.sin(ang)], axis=1))
     entry_m = -float(al_car[0])
     chord_m = 2.0 * r_mid * math.sin(math.pi / n_lap)  # the polyline's lap is its chords'
-    timing = entry_m + n_lap * chord_m * np.arange(5)
+    timing = np.asarray(entry_m + n_lap * chord_m * np.arange(5), np.float64)
     al_cones = to_axis_frame(xy, crossing, axis_heading)
     lane_end = lane_end_along_m(al_cones, 2.0, 0.5 * lane_width_m - 0.3)
     stop = min(stop_after_centre_m, lane_end - front_m - end_clearance_m)

@@ -103,7 +103,8 @@ class Handover:
         progress_m = self.track.progress_m(truth.x_m, truth.y_m)
         # laps are of a loop (the acceleration straight and the skidpad's path are timed on
         # their lines: simulator/mission_timing.py)
-        crossed = self.laps.update(t_s, progress_m) if getattr(self.track, "is_loop", True) else False
+        loop = getattr(self.track, "is_loop", True)
+        crossed = self.laps.update(t_s, progress_m) if loop else False
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         if self.phase == Phase.EXPLORATION:
             if crossed and math.isnan(self.exploration_lap_time_s):

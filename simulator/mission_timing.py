@@ -137,19 +137,20 @@ class MissionTimer:
             return {"start_line_s": _round(t0), "finish_line_s": _round(t1),
                     "time_s": _round(t1 - t0) if t0 is not None and t1 is not None else None}
         passes = self.start.times_s if self.start is not None else []
-        laps = []
-        for k in range(1, len(passes)):
-            side = "right" if self._side_sum_m[k] > 0.0 else "left"
-            laps.append({"side": side, "time_s": _round(passes[k] - passes[k - 1])})
-        right = [lap["time_s"] for lap in laps if lap["side"] == "right"]
-        left = [lap["time_s"] for lap in laps if lap["side"] == "left"]
+        sides = ["right" if self._side_sum_m[k] > 0.0 else "left"
+                 for k in range(1, len(passes))]
+        times = [passes[k] - passes[k - 1] for k in range(1, len(passes))]
+        right = [t for t, side in zip(times, sides, strict=True) if side == "right"]
+        left = [t for t, side in zip(times, sides, strict=True) if side == "left"]
         right_timed = right[1] if len(right) >= 2 else None
         left_timed = left[1] if len(left) >= 2 else None
-        mean = (_round(0.5 * (right_timed + left_timed))
+        mean = (0.5 * (right_timed + left_timed)
                 if right_timed is not None and left_timed is not None else None)
+        laps = [{"side": side, "time_s": _round(t)}
+                for t, side in zip(times, sides, strict=True)]
         return {"gate_passes_s": [_round(t) for t in passes], "laps": laps,
-                "right_timed_lap_s": right_timed, "left_timed_lap_s": left_timed,
-                "mean_timed_lap_s": mean}
+                "right_timed_lap_s": _round(right_timed), "left_timed_lap_s": _round(left_timed),
+                "mean_timed_lap_s": _round(mean)}
 
 
 def _round(value: float | None, digits: int = 3) -> float | None:
