@@ -142,6 +142,10 @@ class PlannerConfig:
     """Inner diameter of the skidpad circles (FS rules D4)."""
     skidpad_lane_width_m: float = 3.0
     """Width of the skidpad's lane between the inner and outer circle (FS rules D4)."""
+    skidpad_lateral_safety_factor: float = 0.8
+    """Fraction of the car's lateral limit the skidpad's profile plans with (the others:
+    ``lateral_safety_factor``): the circles are steady cornering, which the controller's
+    understeer table was measured on, with two changes of direction only."""
     skidpad_stop_after_centre_m: float = 15.0
     """The car stands this far (m) past the skidpad's centre gate in the exit lane (nearer
     when a cone across the lane is mapped before it)."""

@@ -60,8 +60,10 @@ class PathPlanner:
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)
         top_speed = c.acceleration_max_speed_mps if mission == "acceleration" else c.max_speed_mps
+        lateral = c.skidpad_lateral_safety_factor if mission == "skidpad" \
+            else c.lateral_safety_factor
         self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, top_speed,
-                                           lateral_factor=c.lateral_safety_factor)
+                                           lateral_factor=lateral)
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""
         self.track_model: TrackModel | None = None
