@@ -35,6 +35,8 @@ LANE_SEARCH_M = 4.0
 """Cones farther than this (m) beside the axis are no boundary of the lane."""
 BOUNDARY_MIN_M = 1.0
 """Cones nearer than this (m) to the axis stand in the lane: an end, not a boundary."""
+AXIS_REACHES_M = (15.0, 30.0, 60.0, math.inf, math.inf)
+"""The lane's axis is fitted to the cones up to these distances (m) ahead, in turn."""
 GATE_SEARCH_M = 10.0
 """The start line's big orange cones are looked for this far (m) ahead of the car."""
 FINISH_SEARCH_M = 5.0
@@ -50,11 +52,13 @@ def _side_line(al: FloatArray) -> tuple[float, float] | None:
     return float(a), float(b)
 
 
-def lane_axis(al_m: FloatArray, nominal_half_width_m: float) -> tuple[float, float] | None:
+def lane_axis(al_m: FloatArray, nominal_half_width_m: float,
+              reach_m: float = math.inf) -> tuple[float, float] | None:
     """The lane's middle as left = a + b along (m, m/m) from cones (N, 2) given as (along,
-    left) of a guess of the axis; None without two cones on some side."""
-    keep = (al_m[:, 0] > -3.0) & (np.abs(al_m[:, 1]) < LANE_SEARCH_M) \
-        & (np.abs(al_m[:, 1]) > BOUNDARY_MIN_M)
+    left) of a guess of the axis, up to ``reach_m`` ahead; None without two cones on some
+    side."""
+    keep = (al_m[:, 0] > -3.0) & (al_m[:, 0] < reach_m) \
+        & (np.abs(al_m[:, 1]) < LANE_SEARCH_M) & (np.abs(al_m[:, 1]) > BOUNDARY_MIN_M)
     left = _side_line(al_m[keep & (al_m[:, 1] > 0.0)])
     right = _side_line(al_m[keep & (al_m[:, 1] < 0.0)])
     if left is not None and right is not None:
@@ -93,21 +97,17 @@ def acceleration_path(
     xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     origin = np.asarray(start_xy_m, np.float64)
     heading = float(start_yaw_rad)
-    al = to_axis_frame(xy, origin, heading)
-    fit = lane_axis(al, 0.5 * lane_width_m)
-    for _ in range(2):  # refit about the axis found: the split into sides follows the lane
+    # near cones first, then farther about the axis found: the split into sides follows the
+    # lane (a lane at an angle to the car crosses the car's own axis further on)
+    for reach_m in AXIS_REACHES_M:
+        fit = lane_axis(to_axis_frame(xy, origin, heading), 0.5 * lane_width_m, reach_m)
         if fit is None:
+            if math.isfinite(reach_m):
+                continue
             return None
         a, b = fit
         origin = from_axis_frame(np.array([[0.0, a]]), origin, heading)[0]
         heading += math.atan(b)
-        al = to_axis_frame(xy, origin, heading)
-        fit = lane_axis(al, 0.5 * lane_width_m)
-    if fit is None:
-        return None
-    a, b = fit
-    origin = from_axis_frame(np.array([[0.0, a]]), origin, heading)[0]
-    heading += math.atan(b)
     # the car's own position along the axis: the path starts there
     car_along = float(to_axis_frame(np.asarray(start_xy_m, np.float64), origin, heading)[0, 0])
     al = to_axis_frame(xy, origin, heading)
