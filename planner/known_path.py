@@ -12,8 +12,6 @@ from __future__ import annotations
 import logging
 import math
 
-import numpy as np
-
 from common.car import CarConfig
 from common.messages import MapState
 from planner.acceleration_path import acceleration_path
@@ -105,9 +103,3 @@ class KnownPathMission:
         """Frame arc length per path arc length (the spline's length over the polyline's)."""
         return float(frame_length_m / max(path.length_m, 1e-9))
 
-
-def timing_lines_xy_m(path: MissionPath) -> np.ndarray:
-    """Points (T, 2) of the path where its timing lines cross it (for drawing and tests)."""
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path.points_xy_m, axis=0).T))])
-    return np.stack([np.interp(path.timing_s_m, s, path.points_xy_m[:, 0]),
-                     np.interp(path.timing_s_m, s, path.points_xy_m[:, 1])], axis=1)
