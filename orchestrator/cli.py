@@ -17,7 +17,7 @@ from common.cli_types import (
     size_wxh,
 )
 from common.errors import FsdError
-from orchestrator.config import AppConfig
+from orchestrator.config import MISSIONS, AppConfig
 from simulator.faults import fault_spec
 
 
@@ -187,8 +187,9 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
 
 
 def _add_mission_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--mission", choices=("trackdrive", "autocross"),
-                        help="trackdrive (laps; default) or autocross (one unseen lap)")
+    parser.add_argument("--mission", choices=MISSIONS,
+                        help="trackdrive (laps; default), autocross (one unseen lap), "
+                             "acceleration (the 75 m straight) or skidpad (the figure of eight)")
     parser.add_argument("--exploration", choices=("autonomous", "manual"),
                         help="who drives trackdrive's first lap (default: config "
                              "mission.exploration)")

@@ -57,8 +57,10 @@ class MissionConfig:
     """Laps before the car stops: with autonomous exploration every lap counts, the exploring
     one included (FSD trackdrive: 10); with manual exploration the autonomous laps after it."""
     mission: str = "trackdrive"
-    """``trackdrive`` (laps of a track it maps on the first) or ``autocross`` (one lap of an
-    unseen track, explored as it goes)."""
+    """``trackdrive`` (laps of a track it maps on the first), ``autocross`` (one lap of an
+    unseen track, explored as it goes), ``acceleration`` (the 75 m straight from standstill,
+    then a stop in the run-off) or ``skidpad`` (two laps of the right circle, two of the left,
+    then a stop in the exit lane); the last two on a path known from the rules' geometry."""
     exploration: str = "autonomous"
     """Who drives the first lap of trackdrive: ``autonomous`` (the stack, from the cones it
     sees, as at a Formula Student Driverless event) or ``manual`` (a person, seed 002's
@@ -71,14 +73,16 @@ class MissionConfig:
 def apply_mission(mission: MissionConfig, laps: int | None = None, name: str | None = None,
                   exploration: str | None = None) -> None:
     """The command line's ``--laps``, ``--mission`` and ``--exploration`` over the config's
-    mission (None: keep the config's). An autocross is one lap, explored by the stack."""
+    mission (None: keep the config's). An autocross is one lap, explored by the stack;
+    acceleration and skidpad are one run each (their "lap" ends with the car stopped past the
+    finish), with nobody driving before the stack either."""
     if laps is not None:
         mission.laps = laps
     if name is not None:
         mission.mission = name
     if exploration is not None:
         mission.exploration = exploration
-    if mission.mission == "autocross":
+    if mission.mission in ("autocross", "acceleration", "skidpad"):
         mission.exploration = "autonomous"
         mission.laps = 1
 
@@ -106,8 +110,8 @@ def load_config(*paths: str | Path | None) -> AppConfig:
     return config
 
 
-MISSIONS = ("trackdrive", "autocross")
-"""The missions ``sim`` drives (``mission.mission``)."""
+MISSIONS = ("trackdrive", "autocross", "acceleration", "skidpad")
+"""The missions ``sim``, ``emulate`` and ``drive`` drive (``mission.mission``)."""
 EXPLORATIONS = ("autonomous", "manual")
 
 

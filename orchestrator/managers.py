@@ -28,8 +28,8 @@ def make_mapper(config: AppConfig) -> Mapper:
 
 
 def make_planner(config: AppConfig) -> PathPlanner:
-    """The Path Planner."""
-    return PathPlanner(config.planner, config.car)
+    """The Path Planner, for the mission's path (known in advance or not)."""
+    return PathPlanner(config.planner, config.car, config.mission.mission)
 
 
 def make_controller(config: AppConfig) -> Controller:

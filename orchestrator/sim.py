@@ -31,6 +31,7 @@ from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig, apply_mission
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
+from orchestrator.mission_result import mission_result, mission_timer
 from orchestrator.outputs import HashSink, start_live
 from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
@@ -57,7 +58,7 @@ class SimOptions:
     track: str | None = None
     laps: int | None = None
     mission: str | None = None
-    """``trackdrive`` or ``autocross`` (None: the config's)."""
+    """``trackdrive``, ``autocross``, ``acceleration`` or ``skidpad`` (None: the config's)."""
     exploration: str | None = None
     """``autonomous`` or ``manual`` (None: the config's); autocross is always autonomous."""
     seed: int | None = None
@@ -200,6 +201,8 @@ class _SimRunner:
                                standstill_s=config.run.handover_standstill_s,
                                autonomous_exploration=config.mission.exploration == "autonomous")
         self.loop_closure_time_s = math.nan
+        self.timer = mission_timer(config.mission.mission, track, config.car)
+        """Times acceleration and skidpad on their lines (ground truth); None otherwise."""
         self.estop: dict[str, float] | None = None
         self._estop_start: tuple[float, float, float, float] | None = None
         self._estop_path_m = 0.0
@@ -258,6 +261,8 @@ class _SimRunner:
     def _observe(self, t_s: float, truth: Any, command: ActuatorCommand) -> None:
         main = self.main
         self.person.observe(t_s, truth)
+        if self.timer is not None:
+            self.timer.observe(truth)
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         ms = main.map_state
         if ms is not None:
@@ -375,6 +380,10 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "rejected_stale": dict(main.rejected),
         "outputs_sha256": outputs_sha256,
     }
+    mission_time = (result.sim_time_s - runner.person.handover_time_s
+                    if result.finished else None)
+    summary["mission_result"] = mission_result(config.mission.mission, track, config.car,
+                                               runner.timer, mission_time)
     if runner.estop is not None:
         summary["estop"] = runner.estop
     return summary

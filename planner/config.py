@@ -131,6 +131,34 @@ class PlannerConfig:
     two_level_preview_m: float = 10.0
     min_plan_speed_mps: float = 1.0
 
+    # Acceleration and skidpad: paths known from the rules' geometry (planner/known_path.py)
+    acceleration_length_m: float = 75.0
+    """Start line to finish line of the acceleration event (FS rules D5)."""
+    acceleration_stop_after_finish_m: float = 20.0
+    """The car stands this far (m) past the acceleration finish line (nearer when a cone
+    across the lane is mapped before it): inside the shortest run-off of the layouts at hand
+    (EUFS: 25 m to its closing cones; the rules allow more)."""
+    acceleration_lane_width_m: float = 3.0
+    """Nominal lane width (m): the path keeps half of it from a lane with one side mapped."""
+    acceleration_max_speed_mps: float = 25.0
+    """Top speed (m/s) on the acceleration straight (``max_speed_mps`` caps the rest)."""
+    skidpad_inner_diameter_m: float = 15.25
+    """Inner diameter of the skidpad circles (FS rules D4)."""
+    skidpad_lane_width_m: float = 3.0
+    """Width of the skidpad's lane between the inner and outer circle (FS rules D4)."""
+    skidpad_lateral_safety_factor: float = 0.8
+    """Fraction of the car's lateral limit the skidpad's profile plans with (the others:
+    ``lateral_safety_factor``): the circles are steady cornering, which the controller's
+    understeer table was measured on, with two changes of direction only."""
+    skidpad_stop_after_centre_m: float = 15.0
+    """The car stands this far (m) past the skidpad's centre gate in the exit lane (nearer
+    when a cone across the lane is mapped before it)."""
+    mission_end_clearance_m: float = 2.0
+    """The car's front stops this far (m) short of a cone across the lane ahead (the path
+    runs on past the stop, and the manoeuvres along it must clear that cone)."""
+    mission_done_speed_mps: float = 0.5
+    """A known-path mission is over when the car is past its finish and this slow."""
+
     # Laps
     lap_min_fraction: float = 0.5
     """A start-line crossing counts as a lap only after this fraction of a lap of travel."""

@@ -22,6 +22,7 @@ from common.polyline import polyline_length
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
+from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.racing_line import racing_line
 from planner.speed_profile import (
@@ -48,14 +49,22 @@ def empty_targets() -> TargetStates:
 class PathPlanner:
     """Plans the car's next manoeuvre from the map state (see the module docstring)."""
 
-    def __init__(self, config: PlannerConfig, car: CarConfig) -> None:
+    def __init__(self, config: PlannerConfig, car: CarConfig, mission: str = "trackdrive") -> None:
+        """``mission``: the mission's name (``orchestrator.config.MISSIONS``); acceleration
+        and skidpad are driven on a path known in advance (:mod:`planner.known_path`), the
+        others on the track explored or mapped."""
         self.config = config
         self.car = car
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
         self.generator = ManoeuvreGenerator(c, car)
-        self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, c.max_speed_mps,
-                                           lateral_factor=c.lateral_safety_factor)
+        self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
+                      else None)
+        top_speed = c.acceleration_max_speed_mps if mission == "acceleration" else c.max_speed_mps
+        lateral = c.skidpad_lateral_safety_factor if mission == "skidpad" \
+            else c.lateral_safety_factor
+        self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, top_speed,
+                                           lateral_factor=lateral)
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""
         self.track_model: TrackModel | None = None
@@ -99,6 +108,13 @@ class PathPlanner:
         trying from the cone map.
         """
         self.autonomous = True
+        if self.known is not None:
+            pose = map_state.pose
+            if all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad)):
+                self.known.start(pose.x_m, pose.y_m, pose.yaw_rad)
+            self._known_frame(map_state)
+            self._reset_progress(map_state)
+            return
         if len(self.book) >= 8:
             closed = self.book.close_loop(self.config.loop_close_distance_m,
                                           self.config.min_loop_length_m,
@@ -226,7 +242,37 @@ class PathPlanner:
             self.book.set_points(pts, closed=False)
         return ok
 
-    def _profile(self, frame: SplineBaseframe) -> FloatArray:
+    def _known_frame(self, map_state: MapState) -> bool:
+        """The baseframe of a known-path mission from the map as it is now, when the map has
+        grown since the last one (True when a new frame was made)."""
+        assert self.known is not None
+        if self.known.start_pose is None:
+            pose = map_state.pose
+            if not all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad)):
+                return False
+            self.known.start(pose.x_m, pose.y_m, pose.yaw_rad)
+        path = self.known.build(map_state)
+        if path is None:
+            return False
+        c = self.config
+        try:
+            frame = SplineBaseframe(path.points_xy_m, False, resample_m=c.baseframe_resample_m,
+                                    smoothing_m=c.baseframe_smoothing_m,
+                                    step_m=c.baseframe_step_m)
+        except (TrackError, ValueError) as exc:
+            self.rejects["baseframe"] += 1
+            logger.warning("%s baseframe failed: %s", self.known.mission, exc)
+            return False
+        self.frame = frame
+        self.frame_source = self.known.mission
+        self._frame_msg = frame.to_message()
+        self._speed_mps = self._profile(
+            frame, self.known.stop_s_m(KnownPathMission.scale(frame.length_m, path)))
+        return True
+
+    def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf) -> FloatArray:
+        """The speed profile (M,) (m/s) along ``frame``; an open frame ends at standstill,
+        at ``stop_s_m`` (m along it) when that comes first."""
         c = self.config
         ds = np.full(len(frame.s_m) if frame.closed else len(frame.s_m) - 1, frame.step_m)
         kappa = frame.curvature_1pm
@@ -249,6 +295,8 @@ class PathPlanner:
                 c.two_level_preview_m))
         if exploring:
             extra = np.minimum(extra, c.exploration_speed_mps)
+        if math.isfinite(stop_s_m):
+            extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
                                           v_end_mps=None if frame.closed else 0.0,
                                           v_limit_mps=extra)
@@ -358,7 +406,10 @@ class PathPlanner:
             return self._empty_plan(now_s)
         if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
             self._explore_progress(pose.x_m, pose.y_m, map_state)
-        if self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
+        if self.known is not None:
+            if self._known_frame(map_state) and self._s_hint is None:
+                self._reset_progress(map_state)
+        elif self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
             self._frame_from_cones(map_state)
             if self.frame is not None and self.frame.closed:
                 self._reset_progress(map_state)
@@ -374,6 +425,9 @@ class PathPlanner:
             s0, d0 = frame.project(pose.x_m, pose.y_m)
         self._update_lap(s0)
         self._s_hint = s0
+        if self.known is not None and self.known.path is not None and self.known.update(
+                s0, KnownPathMission.scale(frame.length_m, self.known.path), pose.speed_mps):
+            self.lap = 1  # the mission's one "lap": the controller stops the car, finished
         cones = map_state.cones.xy_m
         if len(cones):
             near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)

@@ -204,3 +204,23 @@ def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig) -> float:
     ds = np.full(len(frame.s_m), frame.step_m)
     v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=True)
     return lap_time_s(v, ds, closed=True)
+
+
+def min_run_time_s(path_xy: ArrayLike, car: CarConfig, s_from_m: float, s_to_m: float) -> float:
+    """Friction-limited minimum time (s) from arc length ``s_from_m`` to ``s_to_m`` (m) along an
+    open path (N, 2) (m) on which a point mass starts at standstill at the first point.
+
+    The same point mass as :func:`min_lap_time_s` (the car's lateral, drive and brake limits and
+    top speed, no safety factor; the path's baseframe resampled every 1 m and lightly smoothed),
+    free to leave the path's end at speed: the friction limit of an acceleration run.
+    """
+    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
+
+    frame = SplineBaseframe(path_xy, closed=False, resample_m=1.0, smoothing_m=1.0, step_m=0.5)
+    limits = SpeedLimits.from_car(car)
+    ds = np.full(len(frame.s_m) - 1, frame.step_m)
+    v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=False,
+                                   v_start_mps=0.0)
+    mean = np.maximum(0.5 * (v[1:] + v[:-1]), 1e-6)
+    t = np.concatenate([[0.0], np.cumsum(ds / mean)])
+    return float(np.interp(s_to_m, frame.s_m, t) - np.interp(s_from_m, frame.s_m, t))

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from common.cli_types import non_negative_int, positive_int, seed_list
-from orchestrator.config import AppConfig
+from orchestrator.config import MISSIONS, AppConfig
 from simulator.faults import fault_spec
 
 
@@ -58,7 +58,7 @@ def _run_arguments(parser: argparse.ArgumentParser, seeds_default: str | None) -
                         help="simulation seeds, e.g. 1-100 or 1,5")
     parser.add_argument("--laps", type=positive_int, default=None,
                         help="autonomous laps per run (default: config mission.laps)")
-    parser.add_argument("--mission", choices=("trackdrive", "autocross"), default=None,
+    parser.add_argument("--mission", choices=MISSIONS, default=None,
                         help="mission (default: the config's)")
 
 

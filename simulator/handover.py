@@ -101,7 +101,10 @@ class Handover:
     def observe(self, t_s: float, truth: GroundTruth) -> bool:
         """Update the phase and the lap timer from the truth; True on a start-line crossing."""
         progress_m = self.track.progress_m(truth.x_m, truth.y_m)
-        crossed = self.laps.update(t_s, progress_m)
+        # laps are of a loop (the acceleration straight and the skidpad's path are timed on
+        # their lines: simulator/mission_timing.py)
+        loop = getattr(self.track, "is_loop", True)
+        crossed = self.laps.update(t_s, progress_m) if loop else False
         speed = math.hypot(truth.vx_mps, truth.vy_mps)
         if self.phase == Phase.EXPLORATION:
             if crossed and math.isnan(self.exploration_lap_time_s):

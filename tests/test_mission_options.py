@@ -46,3 +46,35 @@ def test_emulated_car_writes_its_mission_for_drive(tmp_path: Path) -> None:
         emulator.close()
     written = tomllib.loads((tmp_path / "car.toml").read_text())
     assert written["mission"] == {"mission": "autocross", "exploration": "autonomous"}
+
+
+@pytest.mark.parametrize("name", ["acceleration", "skidpad"])
+def test_acceleration_and_skidpad_are_one_run_with_nobody_driving(name: str) -> None:
+    from orchestrator.config import MISSIONS, validate
+
+    assert name in MISSIONS
+    config = AppConfig()
+    config.mission.exploration = "manual"
+    config.mission.laps = 10
+    apply_mission(config.mission, None, name, None)
+    assert (config.mission.mission, config.mission.exploration, config.mission.laps) == (
+        name, "autonomous", 1)
+    validate(config)
+
+
+@pytest.mark.parametrize("command", ["sim", "drive", "emulate"])
+@pytest.mark.parametrize("name", ["acceleration", "skidpad"])
+def test_every_driving_command_takes_acceleration_and_skidpad(command: str, name: str) -> None:
+    args = build_parser().parse_args([command, "--mission", name])
+    assert args.mission == name
+
+
+def test_the_planner_drives_acceleration_and_skidpad_on_a_known_path() -> None:
+    from orchestrator.managers import make_planner
+
+    for name in ("acceleration", "skidpad"):
+        config = AppConfig()
+        apply_mission(config.mission, None, name, None)
+        planner = make_planner(config)
+        assert planner.known is not None and planner.known.mission == name
+    assert make_planner(AppConfig()).known is None
