@@ -94,9 +94,11 @@ class PlannerConfig:
     exploration_speed_mps: float = 8.0
     """Top speed (m/s) while exploring an unseen track from its cones: the profile also brakes
     to a stop at the end of the track known so far."""
-    exploration_start_m: float = 3.0
+    exploration_start_m: float = 1.0
     """While exploring, the path's curvature over its first metres (from the car to the middle
-    of the track) does not set the speed profile; the manoeuvre's own curvature is checked."""
+    of the track) does not set the speed profile; the manoeuvre's own curvature is checked.
+    Short: the path starts at the gate beside the car, and a bend that begins a few metres
+    ahead (the community layouts 'thin', 'small_track_2') must slow the car (3 m hit a cone)."""
     loop_through_start_m: float = 3.0
     """While exploring, a loop found in the cones is the track only when it passes this near
     the start (m): a loop of part of the track (one lobe of a figure-like layout, closed

@@ -34,7 +34,7 @@ BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
 MIN_GATE_M = 1.9
 """Shortest edge that is a gate (m): the FSD minimum track width is 3 m between the cones'
 inner sides; two cones of one side stand closer in a tight bend."""
-MAX_GATE_WIDTHS = 2.2
+MAX_GATE_WIDTHS = 2.7
 """Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
 MAX_TURN_RAD = 1.2
 """Largest change of heading from one midpoint to the next."""
@@ -52,6 +52,7 @@ WIDTH_COST = 2.0
 UNKNOWN_COST = 0.25
 LENGTH_REWARD_PER_M = 1.0
 SKIP_COST_PER_M = 1.0
+REACH_REWARD_PER_GATE = 5.0
 
 
 @dataclass(frozen=True)
@@ -275,7 +276,8 @@ class _Search:
         return out
 
     def run(self, seeds: list[_Partial]) -> _Partial | None:
-        """The lowest-cost path found (the longest, straightest, best-gated)."""
+        """The path found that reaches furthest through valid gates, the straightest and
+        best-gated among those."""
         frontier = [p for p in seeds if not p.done]
         finished = list(seeds)
         for _ in range(MAX_DEPTH):
@@ -293,4 +295,6 @@ class _Search:
         finished.extend(frontier)
         if not finished:
             return None
-        return min(finished, key=lambda q: q.cost)
+        # reach first: through a hairpin every gate's turn costs more than its length earns,
+        # and the path that stops before the bend must not be the best
+        return min(finished, key=lambda q: q.cost - REACH_REWARD_PER_GATE * len(q.gates))
