@@ -25,7 +25,15 @@ from typing import Any
 from common.car import CarConfig
 from common.clock import Clock
 from common.errors import SensorError
-from common.messages import ActuatorCommand, CanFrame, Health, RawBytes, Reading, SourceHealth
+from common.messages import (
+    ActuatorCommand,
+    AsStatus,
+    CanFrame,
+    Health,
+    RawBytes,
+    Reading,
+    SourceHealth,
+)
 from sensors.can_codec import CanCodec
 from sensors.config import SensorsConfig
 from sensors.receiver import FrameDecoder, Intake, Parser, RawUnit, Receiver, join_all
@@ -239,6 +247,17 @@ class SensorManager:
         counted in the CAN source's errors and logged; it does not raise.
         """
         frame = self._command_codec.encode_command(cmd)
+        receiver = self.receivers.get("can")
+        if receiver is not None and self._started:
+            from sensors.can_receiver import CanReceiver
+            if isinstance(receiver, CanReceiver):
+                receiver.send(frame)
+        return frame
+
+    def send_status(self, status: AsStatus) -> CanFrame:
+        """Encode ``status`` as the DBC's AS_STATUS frame and, when live, send it on the CAN
+        bus (as :meth:`send_command`). Returns the frame (offline the simulator takes it)."""
+        frame = self._command_codec.encode_as_status(status)
         receiver = self.receivers.get("can")
         if receiver is not None and self._started:
             from sensors.can_receiver import CanReceiver
