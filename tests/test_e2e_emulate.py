@@ -189,7 +189,8 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     assert served["actuator_frames_in"] > 300  # drive's commands came back over slcan
     assert served["as_status_frames_in"] > 300  # and its AS_STATUS, decoded by the car
     assert served["mission_select"] == 1  # the car selected trackdrive
-    assert served["as_state"] == "READY"  # mission, pose, fresh sensors; no go yet
+    # mission, pose, fresh sensors: READY (no go in these 6 s)
+    assert "READY" in [t["state"] for t in served["as_transitions"]], served["as_transitions"]
     assert served["can_bad_lines"] == 0
 
 
