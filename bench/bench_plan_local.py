@@ -40,7 +40,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from common.cli_types import positive_int
+from common.cli_types import (
+    non_negative_float,
+    non_negative_int,
+    positive_float,
+    positive_int,
+)
 from common.messages import ConeColour, ConeMap, MapState, PoseEstimate
 from orchestrator.config import AppConfig
 from planner.exploration_path import exploration_path
@@ -212,15 +217,15 @@ def unpin(cpus: set[int] | None) -> None:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench plan_local``."""
     parser.add_argument("--track", default=str(FSG), help="track name or file (default FSG)")
-    parser.add_argument("--step-m", type=float, default=2.0,
+    parser.add_argument("--step-m", type=positive_float, default=2.0,
                         help="metres along the centreline between views (default 2)")
-    parser.add_argument("--range-m", type=float, default=None,
+    parser.add_argument("--range-m", type=positive_float, default=None,
                         help="sensor range (m; default the simulated camera's)")
-    parser.add_argument("--fov-deg", type=float, default=None,
+    parser.add_argument("--fov-deg", type=positive_float, default=None,
                         help="field of view (deg; default the simulated camera's)")
-    parser.add_argument("--noise-m", type=float, default=0.05,
+    parser.add_argument("--noise-m", type=non_negative_float, default=0.05,
                         help="position noise of a mapped cone (m, default 0.05)")
-    parser.add_argument("--seed", type=int, default=1, help="noise seed (default 1)")
+    parser.add_argument("--seed", type=non_negative_int, default=1, help="noise seed (default 1)")
     parser.add_argument("--views", type=positive_int, default=None,
                         help="at most this many views (default: the whole lap)")
 
