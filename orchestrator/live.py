@@ -381,7 +381,7 @@ class LiveMain:
                 health = self._health(now_s)
                 command = self._command(now_s, health)
                 self.sensors.send_command(command)
-                self.sensors.send_status(self.controller.as_status(now_s))
+                self.sensors.report_status(self.controller.as_status(now_s))
                 self.times.add("controller", time.perf_counter() - t1)
             t2 = time.perf_counter()
             record_health = health if ticks % HEALTH_RECORD_EVERY == 0 else None

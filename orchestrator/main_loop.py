@@ -16,13 +16,14 @@ Data flow per tick (ARCHITECTURE.md, "One loop")::
     map_state = mapper.update(readings)        # executive layer
     plan      = planner.plan(map_state)        # deliberative layer, plan_rate_hz
     command   = controller.command(...)        # reactive layer, every tick
-    status    = sensors.send_status(...)       # AS_STATUS on CAN, every tick
+    status    = sensors.report_status(...)     # AS_STATUS on CAN: 10 Hz and on a change
     visualiser.submit(map_state, plan, command)
 
 The AS state is that of ONE :class:`controller.as_state_machine.AsStateMachine`, which the
 Controller's safety supervisor steps each tick (``controller.as_machine``): Main hands it the
 mission the car selects in ``MISSION_SELECT`` and reports its ``AS_STATUS`` (AS state, mission,
-lap, ASSI mode) back on CAN every tick (``status_frame``: the frame of the last tick).
+lap, ASSI mode) back on CAN at the DBC's cycle time (10 Hz) and at once on every change
+(``status_frame``: the frame sent this tick, None when none was due).
 """
 
 from __future__ import annotations
@@ -132,7 +133,7 @@ class Main:
         self.mission_select: MissionSelect | None = None
         """The last ``MISSION_SELECT`` the car sent (None: none yet)."""
         self.status_frame: CanFrame | None = None
-        """The ``AS_STATUS`` frame of the last tick (sent on CAN when live)."""
+        """The ``AS_STATUS`` frame sent this tick (None: none was due)."""
         self.truth: GroundTruth | None = None
         self.track: Any = None
         self.autonomous_started = False
@@ -192,7 +193,7 @@ class Main:
         self.command = self.controller.command(
             now_s, self.map_state.pose, self.plan, self.health, self.remote
         )
-        self.status_frame = self.sensors.send_status(self.controller.as_status(now_s))
+        self.status_frame = self.sensors.report_status(self.controller.as_status(now_s))
         t6 = time.perf_counter()
         self.times.add("controller", t6 - t5h)
 

@@ -91,7 +91,7 @@ class TickSensors:
             "health asked for another tick than the one handed"
         return self._tick.health
 
-    def send_status(self, status: object) -> None:
+    def report_status(self, status: object) -> None:
         """A replay has no car to report ``AS_STATUS`` to: nothing is sent."""
         return None
 

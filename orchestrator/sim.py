@@ -8,8 +8,8 @@ Phases, as on the car (ARCHITECTURE.md, "Phases of a run"):
 2. Exploration (``--exploration manual``): the scripted driver (the person, on the car) drives
    one lap and a little past the start line while the stack maps and records waypoints; the
    stack's commands are not applied. Autonomous exploration skips this.
-3. The car stands still; once the ASSI (the car decodes the stack's ``AS_STATUS``, sent every
-   tick) has shown READY for the rules' 5 s, the simulated RES sends "go" over CAN: DRIVING,
+3. The car stands still; once the ASSI (the car decodes the stack's ``AS_STATUS``, 10 Hz and on
+   every change) has shown READY for the rules' 5 s, the simulated RES sends "go" over CAN: DRIVING,
    and 3 s later the stack drives its laps (the first timed from then).
 4. The controller stops the car at the end of its laps (FINISHED), or earlier on any fault
    (EMERGENCY).

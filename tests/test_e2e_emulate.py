@@ -187,7 +187,7 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     served = json.loads(emulator_summary.read_text())
     assert served["stop_reason"] == "signal"
     assert served["actuator_frames_in"] > 300  # drive's commands came back over slcan
-    assert served["as_status_frames_in"] > 300  # and its AS_STATUS, decoded by the car
+    assert served["as_status_frames_in"] > 30  # and its AS_STATUS (10 Hz), decoded by the car
     assert served["mission_select"] == 1  # the car selected trackdrive
     # mission, pose, fresh sensors: READY (no go in these 6 s)
     assert "READY" in [t["state"] for t in served["as_transitions"]], served["as_transitions"]
