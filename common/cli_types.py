@@ -67,6 +67,11 @@ def positive_float(text: str) -> float:
     return _float(text, 0.0, inclusive=False, unit="")
 
 
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0 (noise levels, margins)."""
+    return _float(text, 0.0, inclusive=True, unit="")
+
+
 def positive_seconds(text: str) -> float:
     """A finite duration > 0 s."""
     return _float(text, 0.0, inclusive=False, unit=" s")

@@ -77,7 +77,8 @@ class AsInputs:
     ``res_go`` / ``res_emergency``: the RES state. ``failure``: a non-empty reason is an EBS or
     safety failure (an emergency). ``mission_finished``: the mission (planner) reports its end.
     ``speed_mps``: the car's speed (m/s; NaN: unknown, never standstill). ``lap``: laps started,
-    reported in ``AS_STATUS``.
+    reported in ``AS_STATUS``. ``stack_blocker``: non-empty when the stack itself cannot take
+    the car yet (no pose, a stale sensor): one more condition of OFF -> READY, with its reason.
     """
 
     mission: Mission | None = None
@@ -91,6 +92,7 @@ class AsInputs:
     mission_finished: bool = False
     speed_mps: float = math.nan
     lap: int = 0
+    stack_blocker: str = ""
 
 
 class AsStateMachine:
@@ -111,6 +113,7 @@ class AsStateMachine:
         self.entered_s = math.nan
         self._go_prev = False
         self._blockers: tuple[str, ...] = ()
+        self._first_step_s = math.nan
 
     # ------------------------------------------------------------------ queries
     def time_in_state_s(self, now_s: float) -> float:
@@ -121,6 +124,11 @@ class AsStateMachine:
         """True once the car has been in DRIVING for ``min_driving_before_move_s`` (T14.8.5)."""
         return (self.state == AsState.DRIVING
                 and self.time_in_state_s(now_s) + _EPS_S >= self.config.min_driving_before_move_s)
+
+    @property
+    def blockers(self) -> tuple[str, ...]:
+        """Why the machine is held in OFF (empty when it is not, or not yet stepped)."""
+        return self._blockers
 
     def assi(self) -> AssiMode:
         """The ASSI mode now."""
@@ -140,6 +148,8 @@ class AsStateMachine:
 
     def step(self, now_s: float, inputs: AsInputs) -> AsState:
         """Update the state at ``now_s`` (s) from ``inputs``; returns the new state."""
+        if math.isnan(self._first_step_s):
+            self._first_step_s = now_s
         go_edge = inputs.res_go and not self._go_prev
         self._go_prev = inputs.res_go
         self.lap = int(inputs.lap)
@@ -159,6 +169,9 @@ class AsStateMachine:
 
     def _step_off(self, now_s: float, inputs: AsInputs) -> None:
         blockers = _ready_blockers(inputs)
+        if (inputs.mission is None
+                and now_s - self._first_step_s < self.config.mission_wait_s - _EPS_S):
+            return  # the first MISSION_SELECT may still be on its way: nothing to say yet
         if blockers:
             if blockers != self._blockers:
                 logger.log(logging.WARNING if _mission_blocked(inputs) else logging.INFO,
@@ -237,6 +250,8 @@ def _ready_blockers(inputs: AsInputs) -> tuple[str, ...]:
         out.append("tractive system not active")
     if not inputs.brakes_engaged:
         out.append("brakes not engaged")
+    if inputs.stack_blocker:
+        out.append(f"stack not ready: {inputs.stack_blocker}")
     return tuple(out)
 
 

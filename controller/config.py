@@ -66,6 +66,9 @@ class AsStateMachineConfig:
     again (the rules: only a go after the wait starts the mission). False: a held go counts."""
     assi_flash_hz: float = 3.0
     """Flashing frequency of the ASSI lamps (the rules: 2..5 Hz)."""
+    mission_wait_s: float = 0.5
+    """``MISSION_SELECT`` comes at 10 Hz: for this long (s) after the first step, no frame yet
+    keeps the machine OFF without a log line; after it, "no mission selected" is logged."""
 
 
 @dataclass(slots=True)

@@ -14,7 +14,17 @@ import math
 import numpy as np
 
 from common.car import CarConfig
-from common.messages import ActuatorCommand, AsState, Health, Plan, PoseEstimate, RemoteStop
+from common.messages import (
+    ActuatorCommand,
+    AsState,
+    AsStatus,
+    Health,
+    Mission,
+    Plan,
+    PoseEstimate,
+    RemoteStop,
+)
+from controller.as_state_machine import AsStateMachine
 from controller.config import ControllerConfig
 from controller.pid import PID, LongitudinalController, RateLimiter, clip
 from controller.safety import (
@@ -71,11 +81,15 @@ def make_longitudinal(config: ControllerConfig, car: CarConfig) -> LongitudinalC
 class Controller:
     """Safety supervisor, steering law, throttle and brake PIDs (see the module docstring)."""
 
-    def __init__(self, config: ControllerConfig, car: CarConfig, laps: int) -> None:
-        """``laps``: autonomous laps before the car stops (the mission's, handed in by Main)."""
+    def __init__(self, config: ControllerConfig, car: CarConfig, laps: int,
+                 as_machine: AsStateMachine | None = None) -> None:
+        """``laps``: autonomous laps before the car stops (the mission's, handed in by Main).
+        ``as_machine``: the AS state machine, THE source of the AS state (Main builds it with
+        the rules' timings and hands it the mission); None: the supervisor's stand-alone one
+        (see :class:`~controller.safety.SafetySupervisor`)."""
         self.config = config
         self.car = car
-        self.safety = SafetySupervisor(self.config.safety, laps)
+        self.safety = SafetySupervisor(self.config.safety, laps, as_machine)
         self.longitudinal = make_longitudinal(self.config, self.car)
         self.steering_law = make_steering_law(self.config, self.car)
         self.steer_limiter = RateLimiter(min(self.config.max_steer_rate_radps,
@@ -95,6 +109,19 @@ class Controller:
     def state(self) -> AsState:
         """The AS state."""
         return self.safety.state
+
+    @property
+    def as_machine(self) -> AsStateMachine:
+        """The AS state machine the supervisor steps."""
+        return self.safety.machine
+
+    def select_mission(self, mission: Mission | None) -> None:
+        """The mission the car selects (``MISSION_SELECT``; None: none received)."""
+        self.safety.select_mission(mission)
+
+    def as_status(self, now_s: float) -> AsStatus:
+        """The ``AS_STATUS`` to report at ``now_s``: AS state, mission, lap, ASSI mode."""
+        return self.safety.machine.status(now_s)
 
     @property
     def stop_reason(self) -> str:
@@ -163,7 +190,10 @@ class Controller:
         state = status.state
         if state == AsState.OFF:
             self.longitudinal.reset()
-        elif state in (AsState.READY, AsState.FINISHED):
+        elif state in (AsState.READY, AsState.FINISHED) or (
+                state == AsState.DRIVING and status.stop == StopKind.NONE
+                and not self.safety.may_move(now_s)):
+            # READY, FINISHED and the first seconds of DRIVING (the rules): the brake holds
             self.longitudinal.reset()
             brake = cfg.hold_brake
             steer_target = None

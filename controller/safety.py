@@ -9,13 +9,16 @@ Faults and their response (issue 7, seed 002 3.1.3):
   (a late plan that still covers a stop is followed, slower: see the Controller);
 - the end of the run (lap count reached) -> a controlled stop, then FINISHED at standstill.
 
-States and legal transitions (FS rules, DV 2.x): OFF -> READY -> DRIVING -> FINISHED;
-READY, DRIVING, FINISHED -> EMERGENCY; READY, FINISHED, EMERGENCY -> OFF. A stop latches: once a
+The AS state itself is kept by ONE :class:`controller.as_state_machine.AsStateMachine` (the FSD
+state machine with the rules' timings, built by Main): the supervisor feeds it every tick and
+reads its state. Legal transitions (FS rules): OFF -> READY -> DRIVING -> FINISHED; READY,
+DRIVING, FINISHED -> EMERGENCY; READY, FINISHED, EMERGENCY -> OFF. A stop latches: once a
 reason is set, the car stops; only a new run (reset) clears it.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import logging
 import math
@@ -23,8 +26,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.messages import AsState, Health, Plan, PoseEstimate, RemoteStop, TargetStates
-from controller.config import SafetyConfig
+from common.messages import (
+    AsState,
+    Health,
+    Mission,
+    Plan,
+    PoseEstimate,
+    RemoteStop,
+    TargetStates,
+)
+from controller.as_state_machine import AsInputs, AsStateMachine
+from controller.config import AsStateMachineConfig, SafetyConfig
 
 logger = logging.getLogger(__name__)
 
@@ -82,51 +94,94 @@ class SafetyStatus:
 
 
 class SafetySupervisor:
-    """Checks every control tick and keeps the AS state (see the module docstring).
+    """Checks every control tick and drives the AS state (see the module docstring).
+
+    The AS state is that of ONE :class:`~controller.as_state_machine.AsStateMachine`
+    (``machine``): each tick feeds it what the stack knows (the selected mission, the RES,
+    stale sensors, the supervisor's own stops) and reads its state back. Main builds the machine
+    with the rules' timings (``[controller.as_state]``) and hands the supervisor the mission from
+    ``MISSION_SELECT`` (:meth:`select_mission`); without a machine (a controller used on its own:
+    tests, tools) the supervisor makes one whose mission is selected and whose go counts at once
+    (after ``min_ready_time_s``), with no wait before moving.
 
     ``laps``: autonomous laps after which the run ends (None or <= 0: no lap limit).
     """
 
-    def __init__(self, config: SafetyConfig, laps: int | None = None) -> None:
+    def __init__(self, config: SafetyConfig, laps: int | None = None,
+                 machine: AsStateMachine | None = None) -> None:
         self.config = config
         self.laps = laps if laps is not None and laps > 0 else None
-        self.state = AsState.OFF
+        self.standalone = machine is None
+        if machine is None:
+            machine = AsStateMachine(AsStateMachineConfig(
+                min_ready_s=config.min_ready_time_s, min_driving_before_move_s=0.0,
+                ignore_early_go=False))
+        self.machine = machine
+        self.mission: Mission | None = Mission.TRACKDRIVE if self.standalone else None
+        """The mission the car selects (None: no ``MISSION_SELECT`` yet)."""
         self.stop = StopKind.NONE
         self.stop_reason = ""
         self.stop_time_s = math.nan
-        self.transitions: list[tuple[float, AsState, AsState, str]] = []
-        self._ready_since_s = math.nan
         self._no_path_since_s = math.nan
+        self._inputs = AsInputs(mission=self.mission, asms_on=True, asb_ok=True)
         self.late_plan_ticks = 0
         """Ticks driven on a late plan that still covered a stop."""
 
     # ------------------------------------------------------------------ state machine
+    @property
+    def state(self) -> AsState:
+        """The AS state (the machine's)."""
+        return self.machine.state
+
+    @property
+    def transitions(self) -> list[tuple[float, AsState, AsState, str]]:
+        """Every AS transition as ``(time_s, from, to, reason)`` (the machine's)."""
+        return self.machine.transitions
+
+    def select_mission(self, mission: Mission | None) -> None:
+        """The mission the car selects (``MISSION_SELECT``); the machine reads it each tick."""
+        self.mission = mission
+
+    def _step(self, now_s: float, **changes: object) -> AsState:
+        """Step the machine with the last inputs, changed by ``changes``."""
+        self._inputs = dataclasses.replace(self._inputs, **changes)  # type: ignore[arg-type]
+        return self.machine.step(now_s, self._inputs)
+
     def transition(self, now_s: float, new: AsState, reason: str = "") -> bool:
-        """Move to ``new`` if the FS state machine allows it; False (and a log) if not."""
+        """Ask the machine for ``new`` if the FS state machine allows it; False (and a log)
+        if not, or if the machine's conditions for it do not hold."""
         if new == self.state:
             return True
         if new not in LEGAL_TRANSITIONS[self.state]:
             logger.warning("illegal AS transition %s -> %s refused (%s)", self.state.name,
                            new.name, reason)
             return False
-        logger.info("AS %s -> %s at %.3f s %s", self.state.name, new.name, now_s, reason)
-        self.transitions.append((now_s, self.state, new, reason))
-        self.state = new
         if new == AsState.READY:
-            self._ready_since_s = now_s
-        return True
+            self._step(now_s, mission=self.mission, stack_blocker="", res_go=False)
+        elif new == AsState.DRIVING:
+            self._step(now_s, res_go=False)
+            self._step(now_s, res_go=True)
+        elif new == AsState.EMERGENCY:
+            self._step(now_s, failure=reason or "emergency")
+        elif new == AsState.FINISHED:
+            self._step(now_s, mission_finished=True, speed_mps=0.0)
+        else:
+            self.machine.reset(now_s)
+        return self.state == new
 
     def arm(self, now_s: float) -> bool:
         """OFF -> READY."""
         return self.transition(now_s, AsState.READY, "armed")
 
     def go(self, now_s: float) -> bool:
-        """READY -> DRIVING (the RES go), after the minimum time in READY."""
+        """READY -> DRIVING (the RES go), after the machine's minimum time in READY."""
         if self.state != AsState.READY:
             return False
-        if now_s - self._ready_since_s < self.config.min_ready_time_s:
-            return False
         return self.transition(now_s, AsState.DRIVING, "go")
+
+    def may_move(self, now_s: float) -> bool:
+        """True once the machine lets the car move (DRIVING for its minimum time)."""
+        return self.machine.may_move(now_s)
 
     def request_stop(self, now_s: float, kind: StopKind, reason: str) -> None:
         """Latch a stop; an emergency overrides a controlled stop, never the other way."""
@@ -140,7 +195,7 @@ class SafetySupervisor:
             self.stop_reason = f"{self.stop_reason}; then {reason}"
             logger.warning("emergency at %.3f s: %s", now_s, reason)
         self.stop = kind
-        if kind == StopKind.EMERGENCY:
+        if kind == StopKind.EMERGENCY and self.state != AsState.OFF:
             self.transition(now_s, AsState.EMERGENCY, reason)
 
     def standstill(self, now_s: float) -> None:
@@ -162,27 +217,50 @@ class SafetySupervisor:
         health: Health | None,
         remote: RemoteStop | None,
     ) -> SafetyStatus:
-        """One tick: update the state from the inputs and say how to stop, if at all."""
+        """One tick: step the AS state machine from the inputs and say how to stop, if at all.
+
+        The machine leaves OFF with a drivable mission once the stack has a pose and fresh
+        critical sensors (and, with ``auto_arm`` off, never by itself); READY -> DRIVING on the
+        RES go (``auto_go``: without one), refused while a critical sensor is stale. While
+        DRIVING before the machine lets the car move, only emergencies are checked.
+        """
         c = self.config
-        if remote is not None and remote.emergency and self.state != AsState.OFF:
+        emergency = remote is not None and remote.emergency
+        if emergency and self.state != AsState.OFF:
             self.request_stop(now_s, StopKind.EMERGENCY, "remote emergency stop")
         stale = self._stale_critical(health)
-        if self.state == AsState.OFF and c.auto_arm:
-            if plan is not None and plan.baseframe is not None and not stale:
-                self.arm(now_s)
-        if self.state == AsState.READY:
-            if stale:
-                logger.debug("go refused: stale %s", stale)
-            elif (remote is not None and remote.go) or c.auto_go:
-                self.go(now_s)
-        if self.state == AsState.DRIVING:
+        if self.state == AsState.READY and stale:
+            logger.debug("go refused: stale %s", stale)
+        go = ((remote is not None and remote.go) or c.auto_go) and not stale
+        blocker = ""
+        if self.state == AsState.OFF and self.mission is not None and self.mission.selectable:
+            if not c.auto_arm:
+                blocker = "not armed (controller.safety.auto_arm is off)"
+            elif stale:
+                blocker = f"stale sensor: {', '.join(stale)}"
+            elif pose is None:
+                blocker = "no pose yet"
+        speed = pose.vx_mps if pose is not None and math.isfinite(pose.vx_mps) else math.nan
+        self._inputs = AsInputs(
+            mission=self.mission, asms_on=True, asb_ok=True, ts_active=True,
+            brakes_engaged=True, res_go=go, res_emergency=emergency,
+            failure=self.stop_reason if self.stop == StopKind.EMERGENCY else "",
+            mission_finished=False, speed_mps=speed,
+            lap=plan.lap if plan is not None else 0, stack_blocker=blocker)
+        self.machine.step(now_s, self._inputs)
+        if self.state == AsState.DRIVING and self.may_move(now_s):
             if stale:
                 self.request_stop(now_s, StopKind.EMERGENCY, f"stale sensor: {', '.join(stale)}")
             reason = self._controlled_stop_reason(now_s, pose, plan)
             if reason:
                 self.request_stop(now_s, StopKind.CONTROLLED, reason)
+        elif self.state == AsState.DRIVING and stale:
+            self.request_stop(now_s, StopKind.EMERGENCY, f"stale sensor: {', '.join(stale)}")
         if self.state == AsState.EMERGENCY:
             self.stop = StopKind.EMERGENCY
+            if not self.stop_reason:
+                self.stop_reason = self.machine.reason
+                self.stop_time_s = now_s
         return SafetyStatus(self.state, self.stop, self.stop_reason)
 
     def _stale_critical(self, health: Health | None) -> tuple[str, ...]:

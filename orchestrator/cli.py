@@ -259,7 +259,9 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
                               write_config=args.write_config, summary=args.summary,
                               workdir=args.workdir, seed=args.seed,
                               mission=config.mission.mission,
-                              exploration=config.mission.exploration)
+                              exploration=config.mission.exploration,
+                              ready_wait_s=config.controller.as_state.min_ready_s,
+                              move_delay_s=config.controller.as_state.min_driving_before_move_s)
     emulator = HardwareEmulator(config, options)
     print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
           f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "

@@ -40,6 +40,9 @@ class RunConfig:
     """After the exploration lap the car stands this long before the remote 'go'."""
     exploration_overrun_m: float = 12.0
     """The scripted exploration lap drives this far past the start line before stopping."""
+    ready_timeout_s: float = 30.0
+    """A simulation whose car has not shown READY (``AS_STATUS``) this long (s) after the person
+    was ready to press go ends, with the AS machine's reason (a missing or unknown mission)."""
     render: bool = True
     """Render PNG frames (and a movie) of the run."""
     record: bool = True

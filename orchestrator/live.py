@@ -50,6 +50,7 @@ from common.messages import (
     ActuatorCommand,
     AsState,
     Health,
+    MissionSelect,
     Plan,
     PoseEstimate,
     RemoteStop,
@@ -371,6 +372,8 @@ class LiveMain:
             for reading in batch.readings:
                 if isinstance(reading, RemoteStop):
                     self.remote = reading
+                elif isinstance(reading, MissionSelect):
+                    self.controller.select_mission(reading.mission)  # to the AS machine
             t1 = time.perf_counter()
             command: ActuatorCommand | None = None
             health: Health | None = None
@@ -378,6 +381,7 @@ class LiveMain:
                 health = self._health(now_s)
                 command = self._command(now_s, health)
                 self.sensors.send_command(command)
+                self.sensors.report_status(self.controller.as_status(now_s))
                 self.times.add("controller", time.perf_counter() - t1)
             t2 = time.perf_counter()
             record_health = health if ticks % HEALTH_RECORD_EVERY == 0 else None
@@ -457,8 +461,14 @@ class LiveMain:
             timing["link_messages"] = {"sent": link.sent, "received": link.received,
                                        "dropped": link.dropped}
         health = self._final_health
+        machine = self.controller.as_machine
         summary: dict[str, Any] = {
             "stop_reason": stop_reason,
+            "as_state": machine.state.name,
+            "as_off_reason": "; ".join(machine.blockers) if machine.state == AsState.OFF else "",
+            "as_transitions": [
+                {"time_s": round(t, 3), "from": a.name, "to": b.name, "reason": why}
+                for t, a, b, why in machine.transitions],
             "finished": self.controller.state == AsState.FINISHED,
             "laps_completed": self.plan.lap if self.plan is not None else 0,
             "loop_closure": {"closed": bool(self.loop_closed)},

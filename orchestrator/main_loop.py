@@ -12,10 +12,18 @@ Data flow per tick (ARCHITECTURE.md, "One loop")::
 
     readings  = sensors.take()                 # parsed, time ordered
     recorder.write_raw(raw)                    # raw units, as received
+    controller.select_mission(mission)         # the last MISSION_SELECT, to the AS machine
     map_state = mapper.update(readings)        # executive layer
     plan      = planner.plan(map_state)        # deliberative layer, plan_rate_hz
     command   = controller.command(...)        # reactive layer, every tick
+    status    = sensors.report_status(...)     # AS_STATUS on CAN: 10 Hz and on a change
     visualiser.submit(map_state, plan, command)
+
+The AS state is that of ONE :class:`controller.as_state_machine.AsStateMachine`, which the
+Controller's safety supervisor steps each tick (``controller.as_machine``): Main hands it the
+mission the car selects in ``MISSION_SELECT`` and reports its ``AS_STATUS`` (AS state, mission,
+lap, ASSI mode) back on CAN at the DBC's cycle time (10 Hz) and at once on every change
+(``status_frame``: the frame sent this tick, None when none was due).
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ from common.messages import (
     GroundTruth,
     Health,
     MapState,
+    MissionSelect,
     Plan,
     RawBytes,
     Reading,
@@ -121,6 +130,10 @@ class Main:
         self.command: ActuatorCommand | None = None
         self.health: Health | None = None
         self.remote: RemoteStop | None = None
+        self.mission_select: MissionSelect | None = None
+        """The last ``MISSION_SELECT`` the car sent (None: none yet)."""
+        self.status_frame: CanFrame | None = None
+        """The ``AS_STATUS`` frame sent this tick (None: none was due)."""
         self.truth: GroundTruth | None = None
         self.track: Any = None
         self.autonomous_started = False
@@ -149,6 +162,8 @@ class Main:
         for reading in readings:
             if isinstance(reading, RemoteStop):
                 self.remote = reading
+            elif isinstance(reading, MissionSelect):
+                self._select_mission(reading)
             elif isinstance(reading, GpsFix):
                 if self.recorder is not None:
                     self.recorder.write_gps_fix(reading)
@@ -178,6 +193,7 @@ class Main:
         self.command = self.controller.command(
             now_s, self.map_state.pose, self.plan, self.health, self.remote
         )
+        self.status_frame = self.sensors.report_status(self.controller.as_status(now_s))
         t6 = time.perf_counter()
         self.times.add("controller", t6 - t5h)
 
@@ -204,6 +220,21 @@ class Main:
         self.times.add("tick", time.perf_counter() - t0)
         self.ticks += 1
         return self.command
+
+    def _select_mission(self, reading: MissionSelect) -> None:
+        """Hand the car's mission to the AS state machine; say once when it is not the
+        mission this run was configured for (the configuration sets the laps and the
+        exploration)."""
+        previous = self.mission_select
+        self.mission_select = reading
+        self.controller.select_mission(reading.mission)
+        if previous is not None and previous.mission == reading.mission:
+            return
+        configured = self.config.mission.mission
+        if reading.mission.selectable and reading.mission.name.lower() != configured:
+            log.warning("MISSION_SELECT %s is not the configured mission %s: the stack drives "
+                        "the configuration's laps and exploration", reading.mission.name.lower(),
+                        configured)
 
     def _ready_to_plan(self) -> bool:
         """The baseframe is built once the loop is closed (the map is fixed), or at the RES

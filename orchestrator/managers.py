@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from common.clock import Clock
+from controller.as_state_machine import AsStateMachine
 from controller.controller import Controller
 from mapper.mapper import Mapper
 from orchestrator.config import AppConfig
@@ -33,5 +34,7 @@ def make_planner(config: AppConfig) -> PathPlanner:
 
 
 def make_controller(config: AppConfig) -> Controller:
-    """The Controller, with the mission's laps."""
-    return Controller(config.controller, config.car, config.mission.laps)
+    """The Controller, with the mission's laps and THE AS state machine (the rules' timings,
+    ``[controller.as_state]``): its mission comes from ``MISSION_SELECT``, handed in by Main."""
+    machine = AsStateMachine(config.controller.as_state)
+    return Controller(config.controller, config.car, config.mission.laps, as_machine=machine)

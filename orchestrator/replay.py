@@ -91,6 +91,10 @@ class TickSensors:
             "health asked for another tick than the one handed"
         return self._tick.health
 
+    def report_status(self, status: object) -> None:
+        """A replay has no car to report ``AS_STATUS`` to: nothing is sent."""
+        return None
+
 
 def last_command_time_s(path: Path) -> float:
     """Log time (s) of the last actuator command in a recording: where its run stopped."""

@@ -2,11 +2,17 @@
 
 Phases, as on the car (ARCHITECTURE.md, "Phases of a run"):
 
-1. Exploration: the scripted driver (the person, on the car) drives one lap and a little past the
-   start line while the stack maps and records waypoints; the stack's commands are not applied.
-2. The car stands still; loop closure has happened at the big orange cones.
-3. The simulated RES sends "go" over CAN; the stack drives its autonomous laps.
-4. The controller stops the car at the end of its laps, or earlier on any fault.
+1. The simulated car selects the run's mission in ``MISSION_SELECT`` (CAN, 10 Hz); the stack's
+   AS state machine leaves OFF for READY with it (a missing or unknown mission keeps it OFF:
+   the run ends after ``run.ready_timeout_s`` with the machine's reason).
+2. Exploration (``--exploration manual``): the scripted driver (the person, on the car) drives
+   one lap and a little past the start line while the stack maps and records waypoints; the
+   stack's commands are not applied. Autonomous exploration skips this.
+3. The car stands still; once the ASSI (the car decodes the stack's ``AS_STATUS``, 10 Hz and on
+   every change) has shown READY for the rules' 5 s, the simulated RES sends "go" over CAN: DRIVING,
+   and 3 s later the stack drives its laps (the first timed from then).
+4. The controller stops the car at the end of its laps (FINISHED), or earlier on any fault
+   (EMERGENCY).
 
 The stack only ever sees the raw bytes the simulated sensors emit, which are recorded, so a
 replay of the recording gives the same outputs (``outputs_sha256``) as this run.
@@ -26,7 +32,7 @@ from typing import Any
 from common.clock import RealClock, SimClock
 from common.config import config_to_toml
 from common.conventions import wrap_angle
-from common.messages import ActuatorCommand, AsState
+from common.messages import ActuatorCommand, AsState, Mission
 from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig, apply_mission
 from orchestrator.main_loop import Main
@@ -105,7 +111,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     track = load_track(config.sim.track)
     track.check_drivable(config.car.width_m)
     faults = [parse_fault(text) for text in options.faults]
-    world = SimWorld(config, track, config.sim.seed, faults=faults)
+    world = SimWorld(config, track, config.sim.seed, faults=faults,
+                     mission=Mission[config.mission.mission.upper()])
     driver = ScriptedDriver(track, config.car, config.sim.seed,
                             speed_mps=config.sim.driver_speed_mps,
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
@@ -199,7 +206,9 @@ class _SimRunner:
         self.log = RunLog()
         self.person = Handover(track, driver, world, overrun_m=config.run.exploration_overrun_m,
                                standstill_s=config.run.handover_standstill_s,
-                               autonomous_exploration=config.mission.exploration == "autonomous")
+                               autonomous_exploration=config.mission.exploration == "autonomous",
+                               ready_wait_s=config.controller.as_state.min_ready_s,
+                               move_delay_s=config.controller.as_state.min_driving_before_move_s)
         self.loop_closure_time_s = math.nan
         self.timer = mission_timer(config.mission.mission, track, config.car)
         """Times acceleration and skidpad on their lines (ground truth); None otherwise."""
@@ -228,6 +237,8 @@ class _SimRunner:
             truth = self.world.truth()
             self.main.truth = truth
             command = self.main.tick(t_s, raw)
+            if self.main.status_frame is not None:
+                self.world.receive_can((self.main.status_frame,))
             if k % 10 == 0:
                 self._write_truth(t_s, truth)
             self._observe(t_s, truth, command)
@@ -306,6 +317,15 @@ class _SimRunner:
                 return True, reason, state == AsState.FINISHED
         if self.world.estop_active and self.person.phase != Phase.AUTONOMOUS and speed < 0.05:
             return True, "estop", False
+        waiting = self.person.waiting_since_s
+        if (self.person.phase != Phase.AUTONOMOUS and math.isfinite(waiting)
+                and t_s - waiting > self.config.run.ready_timeout_s
+                and self.world.as_state_for_s(t_s, AsState.READY) == 0.0):
+            machine = controller.as_machine
+            why = "; ".join(machine.blockers) or machine.reason or "no AS_STATUS"
+            reason = f"AS stayed {machine.state.name}: {why}"
+            log.error("the car never showed READY: %s", reason)
+            return True, reason, False
         return False, "", False
 
 
@@ -377,6 +397,11 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
             "tick_wall_p99_ms": tick_ms.get("p99_ms"),
             "stages_ms": main.times.summary_ms(),
         },
+        "as_state": main.controller.state.name,
+        "as_transitions": [
+            {"time_s": round(t, 3), "from": a.name, "to": b.name, "reason": why}
+            for t, a, b, why in main.controller.as_machine.transitions],
+        "as_status_car": _as_status_car(world),
         "rejected_stale": dict(main.rejected),
         "outputs_sha256": outputs_sha256,
     }
@@ -387,6 +412,20 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
     if runner.estop is not None:
         summary["estop"] = runner.estop
     return summary
+
+
+def _as_status_car(world: SimWorld) -> dict[str, Any]:
+    """``AS_STATUS`` as the simulated car decoded it: frames, the last status, every change."""
+    last = world.as_status
+    return {
+        "frames": world.as_status_frames,
+        "state": last.state.name if last is not None else None,
+        "mission": last.mission.name if last is not None else None,
+        "lap": last.lap if last is not None else None,
+        "assi": last.assi.name if last is not None else None,
+        "transitions": [{"time_s": round(t, 3), "state": state.name}
+                        for t, state in world.as_transitions],
+    }
 
 
 def _round(value: float, digits: int = 3) -> float | None:

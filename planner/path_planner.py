@@ -131,6 +131,12 @@ class PathPlanner:
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)
 
+    def explore(self, map_state: MapState) -> bool:
+        """The local planner's call while exploring: the baseframe (``frame``) from the cones
+        mapped so far, ordered into the track ahead of the car (a loop that passes the start
+        closes it). True when a frame was made; what :meth:`plan` does first each call."""
+        return self._frame_from_cones(map_state)
+
     @property
     def exploring(self) -> bool:
         """Planning from the cones mapped so far on an open track (the first lap, explored)."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 import collections
 import itertools
 import logging
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,8 +26,16 @@ from typing import Any
 from common.car import CarConfig
 from common.clock import Clock
 from common.errors import SensorError
-from common.messages import ActuatorCommand, CanFrame, Health, RawBytes, Reading, SourceHealth
-from sensors.can_codec import CanCodec
+from common.messages import (
+    ActuatorCommand,
+    AsStatus,
+    CanFrame,
+    Health,
+    RawBytes,
+    Reading,
+    SourceHealth,
+)
+from sensors.can_codec import AS_STATUS_ID, CanCodec
 from sensors.config import SensorsConfig
 from sensors.receiver import FrameDecoder, Intake, Parser, RawUnit, Receiver, join_all
 
@@ -101,6 +110,9 @@ class SensorManager:
         self.receivers: dict[str, Receiver] = {}
         self.rejects: collections.Counter[str] = collections.Counter()
         self._command_codec = CanCodec(sc.can.dbc or None)
+        self._status_period_s = self.status_period_s
+        self._last_status: AsStatus | None = None
+        self._next_status_s = -math.inf
         self._latest: dict[str, Reading] = {}
         self._started = False
 
@@ -239,6 +251,37 @@ class SensorManager:
         counted in the CAN source's errors and logged; it does not raise.
         """
         frame = self._command_codec.encode_command(cmd)
+        receiver = self.receivers.get("can")
+        if receiver is not None and self._started:
+            from sensors.can_receiver import CanReceiver
+            if isinstance(receiver, CanReceiver):
+                receiver.send(frame)
+        return frame
+
+    @property
+    def status_period_s(self) -> float:
+        """The ``AS_STATUS`` cycle time (s) of the DBC (0.1 s when it names none)."""
+        message = self._command_codec.db.get_message_by_frame_id(AS_STATUS_ID)
+        cycle_ms = message.cycle_time
+        return cycle_ms / 1e3 if cycle_ms else 0.1
+
+    def report_status(self, status: AsStatus) -> CanFrame | None:
+        """Send ``status`` when it is due: every :attr:`status_period_s` (the DBC's cycle time),
+        and at once when the AS state, mission, lap or ASSI mode changed. Returns the frame
+        sent, None when none was due."""
+        last = self._last_status
+        changed = last is None or (last.state, last.mission, last.lap, last.assi) != (
+            status.state, status.mission, status.lap, status.assi)
+        if not changed and status.timestamp_s + 1e-9 < self._next_status_s:
+            return None
+        self._last_status = status
+        self._next_status_s = status.timestamp_s + self._status_period_s
+        return self.send_status(status)
+
+    def send_status(self, status: AsStatus) -> CanFrame:
+        """Encode ``status`` as the DBC's AS_STATUS frame and, when live, send it on the CAN
+        bus (as :meth:`send_command`). Returns the frame (offline the simulator takes it)."""
+        frame = self._command_codec.encode_as_status(status)
         receiver = self.receivers.get("can")
         if receiver is not None and self._started:
             from sensors.can_receiver import CanReceiver

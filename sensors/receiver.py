@@ -38,6 +38,7 @@ from common.messages import (
     GpsFix,
     ImuSample,
     LidarCones,
+    MissionSelect,
     RawBytes,
     Reading,
     RemoteStop,
@@ -55,6 +56,7 @@ READING_KEYS: dict[type, str] = {
     WheelSpeeds: "wheel_speeds",
     SteeringAngle: "steering",
     RemoteStop: "res",
+    MissionSelect: "mission",
     LidarCones: "lidar",
     CameraCones: "camera",
 }
@@ -63,7 +65,7 @@ READING_KEYS: dict[type, str] = {
 
 def reading_key(reading: object) -> str:
     """Key of a reading in ``latest``: ``gps``, ``imu``, ``wheel_speeds``, ``steering``,
-    ``res``, ``lidar``, ``camera`` (else the lower-case type name)."""
+    ``res``, ``mission``, ``lidar``, ``camera`` (else the lower-case type name)."""
     key = READING_KEYS.get(type(reading))
     return key if key is not None else type(reading).__name__.lower()
 

@@ -1,5 +1,6 @@
-"""The car's CAN bus as the simulator sees it: wheel speeds and steering angle at 100 Hz and the
-RES state at 10 Hz, encoded through ``sensors/car.dbc`` (so quantised exactly as on the car).
+"""The car's CAN bus as the simulator sees it: wheel speeds and steering angle at 100 Hz, the
+RES state and the selected mission (``MISSION_SELECT``, :meth:`CanModel.set_mission`) at
+10 Hz, encoded through ``sensors/car.dbc`` (so quantised exactly as on the car).
 
 Wheel surface speeds come from the true planar motion: each wheel's velocity (the vehicle origin
 is the rear-axle centre; front wheels at the wheelbase, steered by the true steering angle)
@@ -18,7 +19,15 @@ from typing import Any
 
 import numpy as np
 
-from common.messages import CanFrame, GroundTruth, RemoteStop, SteeringAngle, WheelSpeeds
+from common.messages import (
+    CanFrame,
+    GroundTruth,
+    Mission,
+    MissionSelect,
+    RemoteStop,
+    SteeringAngle,
+    WheelSpeeds,
+)
 from sensors.can_codec import CanCodec
 from simulator.config import WorldConfig
 
@@ -31,7 +40,8 @@ class CanModel:
 
     def __init__(self, config: WorldConfig, rng: np.random.Generator, *,
                  wheel_rate_hz: float = 100.0, steer_rate_hz: float = 100.0,
-                 res_rate_hz: float = 10.0, wheel_slip_sigma: float = 0.01,
+                 res_rate_hz: float = 10.0, mission_rate_hz: float = 10.0,
+                 wheel_slip_sigma: float = 0.01,
                  wheel_noise_mps: float = 0.02, steer_noise_rad: float = 0.002,
                  garbage_per_tick: float = 2.0) -> None:
         self.config = config
@@ -41,6 +51,9 @@ class CanModel:
         self.wheel_period_s = 1.0 / wheel_rate_hz
         self.steer_period_s = 1.0 / steer_rate_hz
         self.res_period_s = 1.0 / res_rate_hz
+        self.mission_period_s = 1.0 / mission_rate_hz
+        self.mission_value: int | None = None
+        """The wire value ``MISSION_SELECT`` carries (None: no frame is sent)."""
         self.wheel_slip_sigma = wheel_slip_sigma
         self.wheel_noise_mps = wheel_noise_mps
         self.steer_noise_rad = steer_noise_rad
@@ -52,6 +65,7 @@ class CanModel:
         self._next_wheel_k = 0
         self._next_steer_k = 0
         self._next_res_k = 0
+        self._next_mission_k = 0
         self._next_garbage_k = 0
         self._started = False
 
@@ -59,6 +73,11 @@ class CanModel:
         """The state the RES frames report from now on."""
         self.emergency = bool(emergency)
         self.go = bool(go)
+
+    def set_mission(self, value: int | None) -> None:
+        """The wire value the ``MISSION_SELECT`` frames carry from now on (a
+        :class:`~common.messages.Mission` or any number 0..15; None: send none)."""
+        self.mission_value = None if value is None else int(value)
 
     # -- physics --------------------------------------------------------------------------
 
@@ -105,6 +124,16 @@ class CanModel:
         angle = truth.steering_rad + self.steer_noise_rad * float(self.rng.standard_normal())
         return self.codec.encode_steering(SteeringAngle(t_s, angle))
 
+    def _mission_frame(self, t_s: float, value: int) -> CanFrame:
+        known = {m.value for m in Mission}
+        mission = Mission(value) if value in known else Mission.UNKNOWN
+        frame = self.codec.encode_mission(MissionSelect(t_s, mission, value))
+        if value in known:
+            return frame
+        data = bytearray(frame.data)  # a wire value outside the table: written as it is
+        data[0] = (data[0] & 0xF0) | (value & 0x0F)
+        return CanFrame(frame.timestamp_s, frame.arbitration_id, bytes(data))
+
     def _garbage_frames(self, t_s: float) -> list[CanFrame]:
         frames = []
         for _ in range(int(self.rng.poisson(self.garbage_per_tick))):
@@ -137,6 +166,7 @@ class CanModel:
             self._next_wheel_k = math.ceil(t_s / self.wheel_period_s - eps)
             self._next_steer_k = math.ceil(t_s / self.steer_period_s - eps)
             self._next_res_k = math.ceil(t_s / self.res_period_s - eps)
+            self._next_mission_k = math.ceil(t_s / self.mission_period_s - eps)
             self._next_garbage_k = self._next_wheel_k
         while self._next_wheel_k * self.wheel_period_s <= t_s + eps:
             tk = self._next_wheel_k * self.wheel_period_s
@@ -150,6 +180,11 @@ class CanModel:
             tk = self._next_res_k * self.res_period_s
             due.append((tk, 0, [self.codec.encode_res(RemoteStop(tk, self.emergency, self.go))]))
             self._next_res_k += 1
+        while self._next_mission_k * self.mission_period_s <= t_s + eps:
+            tk = self._next_mission_k * self.mission_period_s
+            if self.mission_value is not None:
+                due.append((tk, 4, [self._mission_frame(tk, self.mission_value)]))
+            self._next_mission_k += 1
         while self._next_garbage_k * self.wheel_period_s <= t_s + eps:
             tk = self._next_garbage_k * self.wheel_period_s
             if self.garbage:

@@ -125,6 +125,10 @@ class SimConfig:
     """Standard deviation of the scripted driver's smoothed steering noise."""
     faults: list[str] = field(default_factory=list)
     """Faults to inject, each "KIND@T[:DURATION]" (see simulator/faults.py)."""
+    mission_select: str = "run"
+    """What the simulated car sends in ``MISSION_SELECT`` (10 Hz): ``run`` the run's mission
+    (``--mission``), ``missing`` no frame at all, a mission's name (``none``, ``trackdrive``,
+    ``autocross``, ``acceleration``, ``skidpad``, ``unknown``) or a wire value 0..15."""
     gps: GpsSimConfig = field(default_factory=GpsSimConfig)
     imu: ImuSimConfig = field(default_factory=ImuSimConfig)
     can: CanSimConfig = field(default_factory=CanSimConfig)

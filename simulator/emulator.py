@@ -5,9 +5,11 @@ serves its bytes as the hardware does: NMEA on one pseudo-terminal, IMU packets 
 through an slcan adapter on a third, VLP-16 packets and camera datagrams over UDP on loopback.
 It takes the actuator frames the stack sends on CAN and drives the simulated car with them.
 ``python main.py drive --config car.toml`` in another process then drives it as it would drive
-the car. As on the car, a person (the scripted driver) drives the exploration lap, then the
-RES sends "go" over CAN; like the car, it brakes to a stop when actuator frames stop coming for
-200 ms.
+the car. The car selects its mission in ``MISSION_SELECT`` (``--mission``, 10 Hz) and decodes
+the stack's ``AS_STATUS`` (logging each change of the AS state, as the ASSI shows it). As on the
+car, a person (the scripted driver) drives the exploration lap (``--exploration manual``), and
+once the ASSI has shown READY for the rules' 5 s the RES sends "go" over CAN; like the car, it
+brakes to a stop when actuator frames stop coming for 200 ms.
 """
 
 from __future__ import annotations
@@ -25,8 +27,8 @@ from typing import Any
 import tomli_w
 
 from common.clock import RealClock
-from common.messages import ActuatorCommand, CanFrame, RawBytes
-from sensors.can_codec import CanCodec
+from common.messages import ActuatorCommand, CanFrame, Mission, RawBytes
+from sensors.can_codec import AS_STATUS_ID, CanCodec
 from simulator.config import WorldConfig
 from simulator.driver import ScriptedDriver
 from simulator.handover import Handover, Phase
@@ -70,6 +72,12 @@ class EmulatorOptions:
     """``autonomous``: nobody drives the first lap; ``manual``: the scripted person does."""
     lead_in_s: float = 1.0
     """Then it stands this long with its sensors streaming before the exploration lap starts."""
+    ready_wait_s: float | None = 5.0
+    """The person presses go once the ASSI has shown READY this long (s; the rules' 5 s; None:
+    without looking at ``AS_STATUS``)."""
+    move_delay_s: float = 3.0
+    """The car may move this long after the go (the rules' 3 s): the first lap is timed from
+    then."""
 
 
 class HardwareEmulator:
@@ -82,14 +90,17 @@ class HardwareEmulator:
             config.sim.seed = options.seed
         self.track = load_track(options.track)
         self.track.check_drivable(config.car.width_m)
-        self.world = SimWorld(config, self.track, config.sim.seed)
+        self.world = SimWorld(config, self.track, config.sim.seed,
+                              mission=Mission[options.mission.upper()])
         self.driver = ScriptedDriver(self.track, config.car, config.sim.seed,
                                      speed_mps=config.sim.driver_speed_mps,
                                      steer_noise_rad=config.sim.driver_steer_noise_rad)
         self.person = Handover(self.track, self.driver, self.world,
                                overrun_m=options.exploration_overrun_m,
                                standstill_s=options.handover_standstill_s,
-                               autonomous_exploration=options.exploration == "autonomous")
+                               autonomous_exploration=options.exploration == "autonomous",
+                               ready_wait_s=options.ready_wait_s,
+                               move_delay_s=options.move_delay_s)
         self.codec = CanCodec(config.sensors.can.dbc or None)
         workdir = options.workdir or Path(tempfile.mkdtemp(prefix="fsd-emulator-"))
         workdir.mkdir(parents=True, exist_ok=True)
@@ -156,6 +167,9 @@ class HardwareEmulator:
 
     def _take_commands(self, t_s: float, wall_s: float) -> None:
         for frame in self.can.poll(t_s):
+            if frame.arbitration_id == AS_STATUS_ID:
+                self._as_status(frame)
+                continue
             self.frames_in += 1
             command = self.codec.decode_command(frame)
             if command is None:
@@ -164,6 +178,16 @@ class HardwareEmulator:
             self.last_command = command
             self.last_command_wall_s = wall_s
             self.ever_commanded = True
+
+    def _as_status(self, frame: CanFrame) -> None:
+        """The stack's ``AS_STATUS``, decoded as the car does; a change of state is logged."""
+        before = self.world.as_status
+        for status in self.world.receive_can((frame,)):
+            if before is None or before.state != status.state:
+                log.info("AS_STATUS: %s (ASSI %s), mission %s, lap %d", status.state.name,
+                         status.assi.name.lower().replace("_", " "),
+                         status.mission.name.lower(), status.lap)
+            before = status
 
     def _stack_command(self, t_s: float, wall_s: float) -> ActuatorCommand:
         fresh = wall_s - self.last_command_wall_s <= ACTUATOR_TIMEOUT_S
@@ -291,4 +315,10 @@ class HardwareEmulator:
             "wall_time_s": round(elapsed_s, 3),
             "final_speed_mps": round(self.final_speed_mps, 3),
             "watchdog_stop": self.watchdog_stop,
+            "mission_select": self.world.mission_value,
+            "as_status_frames_in": self.world.as_status_frames,
+            "as_state": (self.world.as_status.state.name if self.world.as_status is not None
+                         else None),
+            "as_transitions": [{"time_s": round(t, 3), "state": state.name}
+                               for t, state in self.world.as_transitions],
         }

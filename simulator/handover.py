@@ -68,10 +68,17 @@ class Handover:
     """
 
     def __init__(self, track: Any, driver: Any, world: Any, *, overrun_m: float = 12.0,
-                 standstill_s: float = 1.0, autonomous_exploration: bool = False) -> None:
+                 standstill_s: float = 1.0, autonomous_exploration: bool = False,
+                 ready_wait_s: float | None = None, move_delay_s: float = 0.0) -> None:
         """``autonomous_exploration``: nobody drives; the person only presses "go" once the car
         has stood ``standstill_s`` at the start, and the stack explores the first lap itself
-        (its time is the first of :meth:`lap_times_s`)."""
+        (its time is the first of :meth:`lap_times_s`).
+
+        ``ready_wait_s`` (s; None: do not look): the person also waits until the ASSI has shown
+        READY that long (the rules' 5 s), as the car decodes it from the stack's ``AS_STATUS``
+        (``world.as_state_for_s``), before pressing go. ``move_delay_s`` (s): the car may move
+        only this long after the go (the rules' 3 s in DRIVING): the first lap is timed from
+        then (``start_time_s``)."""
         self.track = track
         self.driver = driver
         self.world = world
@@ -82,6 +89,12 @@ class Handover:
         self.laps = LapTimer(track.lap_length_m)
         self.exploration_lap_time_s = math.nan
         self.handover_time_s = math.nan
+        self.ready_wait_s = ready_wait_s
+        self.move_delay_s = move_delay_s
+        self.waiting_since_s = math.nan
+        self.driving_seen_s = math.nan
+        """When the car first showed DRIVING in ``AS_STATUS`` after the go (NaN: not seen)."""
+        """When the person was ready to press go but the car was not READY long enough."""
         self.autonomous_crossings_s: list[float] = []
         self._still_since_s: float | None = None
 
@@ -117,23 +130,47 @@ class Handover:
             if speed < 0.05:
                 if self._still_since_s is None:
                     self._still_since_s = t_s
-                if t_s - self._still_since_s >= self.standstill_s:
+                if t_s - self._still_since_s >= self.standstill_s and not self._car_ready(t_s):
+                    if math.isnan(self.waiting_since_s):
+                        self.waiting_since_s = t_s
+                        log.info("the person waits for the ASSI to show READY for %.1f s",
+                                 self.ready_wait_s or 0.0)
+                elif t_s - self._still_since_s >= self.standstill_s:
                     self.phase = Phase.AUTONOMOUS
                     self.handover_time_s = t_s
                     self.world.send_go()
                     log.info("RES go: handover to the stack at t=%.2f s", t_s)
             else:
                 self._still_since_s = None
-        elif crossed:
+        if self.phase == Phase.AUTONOMOUS and math.isnan(self.driving_seen_s):
+            status = getattr(self.world, "as_status", None)
+            if status is not None and status.state == AsState.DRIVING:
+                self.driving_seen_s = float(self.world.as_state_since_s)
+        if self.phase == Phase.AUTONOMOUS and crossed:
             self.autonomous_crossings_s.append(self.laps.crossings_s[-1])
             if self.autonomous_exploration and math.isnan(self.exploration_lap_time_s):
-                self.exploration_lap_time_s = self.laps.crossings_s[-1] - self.handover_time_s
+                self.exploration_lap_time_s = self.laps.crossings_s[-1] - self.start_time_s
         return crossed
 
+    @property
+    def start_time_s(self) -> float:
+        """When the stack's first lap starts (s): the go (when the car showed DRIVING, else
+        when the person pressed it) plus the wait before moving."""
+        go_s = self.driving_seen_s if math.isfinite(self.driving_seen_s) else self.handover_time_s
+        return go_s + self.move_delay_s
+
+    def _car_ready(self, t_s: float) -> bool:
+        """Has the ASSI shown READY for ``ready_wait_s`` (always True when not looking)?"""
+        if self.ready_wait_s is None:
+            return True
+        shown = getattr(self.world, "as_state_for_s", None)
+        return shown is not None and shown(t_s, AsState.READY) >= self.ready_wait_s
+
     def lap_times_s(self) -> list[float]:
-        """Autonomous lap times (s): from the handover (standing start) to each crossing."""
+        """Autonomous lap times (s): from the start (the go plus the wait before moving, a
+        standing start) to each crossing."""
         crossings = self.autonomous_crossings_s
         if not crossings:
             return []
-        starts = [self.handover_time_s, *crossings[:-1]]
+        starts = [self.start_time_s, *crossings[:-1]]
         return [round(end - start, 3) for start, end in zip(starts, crossings, strict=True)]

@@ -20,7 +20,16 @@ from typing import Any
 
 import numpy as np
 
-from common.messages import ActuatorCommand, CanFrame, GroundTruth, RawBytes
+from common.messages import (
+    ActuatorCommand,
+    AsState,
+    AsStatus,
+    CanFrame,
+    GroundTruth,
+    Mission,
+    RawBytes,
+)
+from sensors.can_codec import CanCodec
 from simulator.camera_model import CameraModel
 from simulator.can_model import CanModel
 from simulator.config import WorldConfig
@@ -47,6 +56,23 @@ RawUnit = RawBytes | CanFrame
 _FAULT_SOURCE = {"gps-dropout": "gps", "lidar-dead": "lidar", "camera-dead": "camera"}
 
 
+def mission_select_value(setting: str, mission: Mission) -> int | None:
+    """The ``MISSION_SELECT`` wire value of ``config.sim.mission_select`` (see
+    :class:`simulator.config.SimConfig`): ``run`` is ``mission``; None for ``missing``."""
+    text = setting.strip().lower()
+    if text == "run":
+        return int(mission)
+    if text == "missing":
+        return None
+    if text.isdigit() and 0 <= int(text) <= 15:
+        return int(text)
+    try:
+        return int(Mission[text.upper()])
+    except KeyError:
+        raise ValueError(f"sim.mission_select {setting!r}: expected run, missing, a mission "
+                         f"({', '.join(m.name.lower() for m in Mission)}) or 0..15") from None
+
+
 def _timestamp(unit: RawUnit) -> float:
     return unit.timestamp_s
 
@@ -57,12 +83,19 @@ class SimWorld:
     ``sensors``: names of the sensor models to run (default all of :data:`SENSOR_MODELS` that
     are enabled in ``config.sim``); ``faults``: fault specs (default ``config.sim.faults``);
     ``res_go``: whether the remote stop (RES) reports "go" from the start (on the car the
-    person presses go at the handover: :meth:`send_go`).
+    person presses go at the handover: :meth:`send_go`); ``mission``: the run's mission, which
+    the car selects in ``MISSION_SELECT`` unless ``config.sim.mission_select`` says otherwise
+    (None: trackdrive).
+
+    The car's side of ``AS_STATUS``: :meth:`receive_can` decodes the frames the stack sends;
+    ``as_status`` is the last one, ``as_transitions`` every change of its AS state as
+    ``(time_s, state)``.
     """
 
     def __init__(self, config: WorldConfig, track: Track, seed: int | None = None,
                  faults: str | Iterable[str | Fault] | None = None,
-                 sensors: Sequence[str] | None = None, res_go: bool = False) -> None:
+                 sensors: Sequence[str] | None = None, res_go: bool = False,
+                 mission: Mission | None = None) -> None:
         self.config = config
         self.track = track
         self.seed = config.sim.seed if seed is None else int(seed)
@@ -96,6 +129,19 @@ class SimWorld:
         self._res_state: tuple[bool, bool] | None = None
         self._go = bool(res_go)
         self._update_res(0.0)
+        self.mission_value = mission_select_value(config.sim.mission_select,
+                                                  Mission.TRACKDRIVE if mission is None
+                                                  else mission)
+        """The wire value the car sends in ``MISSION_SELECT`` (None: no frame)."""
+        can = self.models.get("can")
+        if can is not None and hasattr(can, "set_mission"):
+            can.set_mission(self.mission_value)
+        self._status_codec = CanCodec(config.sensors.can.dbc or None)
+        self.as_status: AsStatus | None = None
+        self.as_status_frames = 0
+        self.as_transitions: list[tuple[float, AsState]] = []
+        self.as_state_since_s = math.nan
+        """When the AS state last changed (s), as the car saw it in ``AS_STATUS``."""
 
     # -- public ---------------------------------------------------------------------------
 
@@ -114,6 +160,30 @@ class SimWorld:
         emergency stop is pressed)."""
         self._go = True
         self._update_res(self.t_s)
+
+    def receive_can(self, frames: Iterable[CanFrame]) -> list[AsStatus]:
+        """Frames the stack sent on the bus: each ``AS_STATUS`` is decoded (as the car's VCU
+        does; the ASSI lamps show its mode) and kept; returns the statuses decoded."""
+        out = []
+        for frame in frames:
+            status = self._status_codec.decode_as_status(frame)
+            if status is None:
+                continue
+            self.as_status_frames += 1
+            previous = self.as_status
+            if previous is None or previous.state != status.state:
+                self.as_transitions.append((status.timestamp_s, status.state))
+                self.as_state_since_s = status.timestamp_s
+            self.as_status = status
+            out.append(status)
+        return out
+
+    def as_state_for_s(self, now_s: float, state: AsState) -> float:
+        """How long (s) the car has seen ``state`` in ``AS_STATUS`` at ``now_s`` (0 when it
+        does not show it)."""
+        if self.as_status is None or self.as_status.state != state:
+            return 0.0
+        return now_s - self.as_state_since_s
 
     def truth(self) -> GroundTruth:
         """The car's true state now."""

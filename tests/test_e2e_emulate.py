@@ -187,7 +187,10 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     served = json.loads(emulator_summary.read_text())
     assert served["stop_reason"] == "signal"
     assert served["actuator_frames_in"] > 300  # drive's commands came back over slcan
-    assert served["non_command_frames_in"] == 0
+    assert served["as_status_frames_in"] > 30  # and its AS_STATUS (10 Hz), decoded by the car
+    assert served["mission_select"] == 1  # the car selected trackdrive
+    # mission, pose, fresh sensors: READY (no go in these 6 s)
+    assert "READY" in [t["state"] for t in served["as_transitions"]], served["as_transitions"]
     assert served["can_bad_lines"] == 0
 
 
@@ -227,6 +230,8 @@ def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
     # What drive recorded (up to its last complete chunk).
     times, states, health = read_drive_recording(drive_dir / "recording.mcap")
     assert AsState.DRIVING in states, "drive never commanded DRIVING: the RES go did not reach it"
+    seen = [t["state"] for t in served["as_transitions"]]
+    assert seen[:3] == ["OFF", "READY", "DRIVING"], seen  # AS_STATUS, as the car decoded it
     assert health, "no /health recorded"
     last = health[-1]
     rates = {s.source: s.rate_hz for s in last.sources}
