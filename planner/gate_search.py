@@ -101,18 +101,21 @@ def gate_search_path(
     points = [np.asarray(best.points[0], np.float64)]
     if best.points[0] != (float(start[0]), float(start[1])):
         points = []  # the path starts at the gate behind the car
-    points.extend(_centre_points(xy[near], best.gates))
+    points.extend(_centre_points(xy[near], best.gates, np.asarray(best.points, np.float64)))
     return np.asarray(points, np.float64), used
 
 
-def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...]) -> list[FloatArray]:
+def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
+                   midpoints: FloatArray) -> list[FloatArray]:
     """One centre point per gate: the first gate's middle, then for each gate the middle
     between the cone it adds and the other side's boundary (its polyline through that side's
-    cones in order). A diagonal gate's own middle lies off the centre in a bend, and
-    alternating with square gates it would put a wiggle into the path's curvature."""
+    cones in order), in their order along the gates' ``midpoints`` (K, 2) (a cone added late
+    may lie abreast of an earlier one: its point is not a step back). A diagonal gate's own
+    middle lies off the centre in a bend, and alternating with square gates it would put a
+    wiggle into the path's curvature."""
     lefts = list(dict.fromkeys(g[0] for g in gates))
     rights = list(dict.fromkeys(g[1] for g in gates))
-    points = [0.5 * (xy[gates[0][0]] + xy[gates[0][1]])]
+    found = [0.5 * (xy[gates[0][0]] + xy[gates[0][1]])]
     seen = {gates[0][0], gates[0][1]}
     for left, right in gates[1:]:
         if left not in seen:
@@ -125,14 +128,20 @@ def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...]) -> list[F
         other_xy = xy[other]
         foot = other_xy[0] if len(other_xy) == 1 else \
             nearest_on_polyline(xy[new][None, :], other_xy, False)[3][0]
-        point = 0.5 * (xy[new] + foot)
+        found.append(0.5 * (xy[new] + foot))
+    order = np.arange(len(found))
+    if len(midpoints) >= 2 and len(found) > 2:
+        _, segment, t, _ = nearest_on_polyline(np.asarray(found[1:]), midpoints, False)
+        order = np.r_[0, 1 + np.argsort(segment + t, kind="stable")]
+    points = [found[0]]
+    for k in order[1:]:
+        point = found[int(k)]
         if math.hypot(*(point - points[-1])) < MERGE_M:
             # a left cone and a right one abreast: one gate, one point
             points[-1] = 0.5 * (points[-1] + point)
         else:
             points.append(point)
     return points
-
 
 class _Search:
     """The beam search over one triangulation (cone indices local to it)."""

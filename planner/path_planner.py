@@ -55,6 +55,7 @@ class PathPlanner:
         others on the track explored or mapped."""
         self.config = config
         self.car = car
+        self.mission = mission
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
         self.generator = ManoeuvreGenerator(c, car)
@@ -228,6 +229,11 @@ class PathPlanner:
             self.rejects["loop_ahead_unseen"] += 1
             logger.debug("a loop in the cones %.0f m long after %.0f m driven: still exploring",
                          polyline_length(pts, True), self._explored_m)
+            closed = False
+        if closed and self._origin_xy is not None and self.mission == "autocross":
+            # one lap: nothing to race on the closed map, and building its racing line takes
+            # the planner a second (drive's plans would run late); the lap ends at the line
+            self.rejects["loop_in_autocross"] += 1
             closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known

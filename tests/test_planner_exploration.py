@@ -213,3 +213,38 @@ def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> No
     for k, angle in enumerate(np.linspace(2.4 * math.pi, 4.2 * math.pi, 160), 202):
         planner.plan(state(0.1 * k, float(angle), everything), 0.1 * k)
     assert planner.lap == 2
+
+
+def test_an_autocross_never_closes_its_loop_and_ends_its_lap_at_the_line() -> None:
+    """Autocross is one lap: a loop found in the cones is not raced (building its racing line
+    takes the planner a second that drive's plans have not got), the car explores on and the
+    lap ends where it crosses its start line."""
+    from planner_closed_loop_helpers import cone_map
+
+    from common.messages import MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    planner = PathPlanner(config.planner, config.car, "autocross")
+    radius_m, half_m = 20.0, 1.75
+    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
+    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
+    everything = cone_map(cones, colours)
+
+    def state(t_s: float, angle: float) -> MapState:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        pose = PoseEstimate(t_s, x, y, angle, 8.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        return MapState(t_s, pose, everything, loop_closed=False)
+
+    planner.start_autonomous(state(0.0, 0.0))
+    laps = []
+    for k, angle in enumerate(np.linspace(0.0, 2.3 * math.pi, 200)[1:], 1):
+        planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
+        assert planner.exploring
+        laps.append(planner.lap)
+    assert planner.rejects["loop_in_autocross"] > 0
+    assert laps[-1] == 1 and laps.count(0) > 150
