@@ -267,7 +267,8 @@ class HardwareEmulator:
             self._stack_drove = True
             log.info("the stack drives the car: %.1f m/s at t=%.2f s", speed, t_s)
         stale = t_s - self.last_command_wall_s > ACTUATOR_TIMEOUT_S
-        if (self.watchdog_stop is None and stale and self.ever_commanded
+        # a gap while the stack holds the car still (the 3 s after the go) brakes nothing
+        if (self.watchdog_stop is None and stale and self.ever_commanded and self._stack_drove
                 and self.person.phase == Phase.AUTONOMOUS):
             self.watchdog_stop = {"time_s": round(t_s, 3), "speed_mps": round(speed, 3),
                                   "last_frame_s": round(self.last_command_wall_s, 3)}
