@@ -143,6 +143,7 @@ def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
             points.append(point)
     return points
 
+
 class _Search:
     """The beam search over one triangulation (cone indices local to it)."""
 

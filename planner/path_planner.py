@@ -219,22 +219,12 @@ class PathPlanner:
             track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
             max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
         )
-        if closed and self._origin_xy is not None \
-                and _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
-            self.rejects["loop_misses_start"] += 1
-            logger.debug("a loop in the cones that misses the start: still exploring")
-            closed = False
-        if closed and self._origin_xy is not None and self._explored_m \
-                < polyline_length(pts, True) - c.loop_unseen_max_m:
-            self.rejects["loop_ahead_unseen"] += 1
-            logger.debug("a loop in the cones %.0f m long after %.0f m driven: still exploring",
-                         polyline_length(pts, True), self._explored_m)
-            closed = False
-        if closed and self._origin_xy is not None and self.mission == "autocross":
-            # one lap: nothing to race on the closed map, and building its racing line takes
-            # the planner a second (drive's plans would run late); the lap ends at the line
-            self.rejects["loop_in_autocross"] += 1
-            closed = False
+        if closed and self._origin_xy is not None:
+            refusal = self._loop_refusal(pts)
+            if refusal:
+                self.rejects[refusal] += 1
+                logger.debug("a loop in the cones, not the track (%s): still exploring", refusal)
+                closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
@@ -281,6 +271,23 @@ class PathPlanner:
         self._speed_mps = self._profile(
             frame, self.known.stop_s_m(KnownPathMission.scale(frame.length_m, path)))
         return True
+
+    def _loop_refusal(self, pts: FloatArray) -> str:
+        """Why a loop found in the cones while exploring is not the track ('' when it is): it
+        misses the start (one lobe of a figure-like layout closed through another stretch's
+        cones); the car has not driven all but ``loop_unseen_max_m`` of it (a loop through cones
+        seen across a narrow waist cuts a bend not mapped yet); or the mission is an autocross
+        (one lap: nothing to race on the closed map, and building its racing line takes the
+        planner a second that drive's plans have not got; the lap ends at the line)."""
+        assert self._origin_xy is not None
+        c = self.config
+        if _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
+            return "loop_misses_start"
+        if self._explored_m < polyline_length(pts, True) - c.loop_unseen_max_m:
+            return "loop_ahead_unseen"
+        if self.mission == "autocross":
+            return "loop_in_autocross"
+        return ""
 
     def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf) -> FloatArray:
         """The speed profile (M,) (m/s) along ``frame``; an open frame ends at standstill,
