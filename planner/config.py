@@ -39,6 +39,9 @@ class PlannerConfig:
     baseframe_resample_m: float = 1.0
     baseframe_smoothing_m: float = 2.5
     """Gaussian smoothing (standard deviation along the path) before the spline fit."""
+    exploration_smoothing_m: float = 1.0
+    """The same while exploring: the gates' centre points are as good as the map, and 2.5 m
+    pulled the path 0.4 m inside a 3 m bend (a rules-minimum hairpin) onto the inner cones."""
     baseframe_step_m: float = 0.25
     centre_on_cones: bool = True
     max_centring_shift_m: float = 2.0
@@ -109,8 +112,14 @@ class PlannerConfig:
     (a narrow waist, an infield) cuts a bend whose outer side is not mapped yet."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
+    lap_min_m: float = 15.0
+    """While exploring, a crossing of the start line is a lap only this far (m) past the last
+    crossing or the start: the crossing of a car that starts behind the line starts the lap."""
     fallback_speed_mps: float = 4.0
     """Speed cap of the short-horizon manoeuvres tried last."""
+    crawl_speed_mps: float = 2.0
+    """Speed cap (m/s) of the last resort, candidates with only the cone's radius to spare: at
+    walking pace the car turns as the kinematic bicycle and follows its path closely."""
     cone_search_radius_m: float = 30.0
 
     # Speed profile

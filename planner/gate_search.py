@@ -133,14 +133,20 @@ def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
     if len(midpoints) >= 2 and len(found) > 2:
         _, segment, t, _ = nearest_on_polyline(np.asarray(found[1:]), midpoints, False)
         order = np.r_[0, 1 + np.argsort(segment + t, kind="stable")]
-    points = [found[0]]
+    # points within MERGE_M of the first of their run are one point, their mean (a left cone
+    # and a right one abreast: one gate, one point). Measured from the run's first point, not
+    # from a running mean: round a tight bend with cones 0.7 m apart the points stand 0.4 m
+    # apart, and a running mean let a whole bend fall into one point.
+    points: list[FloatArray] = []
+    run = [found[0]]
     for k in order[1:]:
         point = found[int(k)]
-        if math.hypot(*(point - points[-1])) < MERGE_M:
-            # a left cone and a right one abreast: one gate, one point
-            points[-1] = 0.5 * (points[-1] + point)
+        if math.hypot(*(point - run[0])) < MERGE_M:
+            run.append(point)
         else:
-            points.append(point)
+            points.append(np.mean(run, axis=0))
+            run = [point]
+    points.append(np.mean(run, axis=0))
     return points
 
 

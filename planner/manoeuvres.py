@@ -104,13 +104,16 @@ class ManoeuvreGenerator:
         ``start`` = (d, dd/ds) overrides the start state (offset (m) and slope) taken from the
         car. The search widens until a feasible candidate is found: the configured offsets over
         the speed's horizon, then more and wider offsets, then shorter horizons (a slower,
-        sharper manoeuvre: those carry a speed cap). Each family's rejections are counted in
-        :attr:`rejections` (``family: check``)."""
+        sharper manoeuvre: those carry a speed cap), and last at a crawl with the cone's own
+        radius as the margin throughout (at walking pace the car follows its path to a few
+        centimetres: a rules-minimum hairpin leaves no more room than that to a car placed on
+        its centreline). Each family's rejections are counted in :attr:`rejections`
+        (``family: check``)."""
         tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
         cands: list[Candidate] = []
-        for family, offsets, horizon, cap in self._families(speed_mps):
+        for family, offsets, horizon, cap, margin in self._families(speed_mps):
             cands = self._family(frame, s0_m, d0_m, yaw_rad, speed_mps, tree, last_offset_m,
-                                 start, offsets, horizon, cap)
+                                 start, offsets, horizon, cap, margin)
             if not cands:
                 return [], -1
             feasible = [i for i, cand in enumerate(cands) if cand.feasible]
@@ -119,25 +122,35 @@ class ManoeuvreGenerator:
                     self.rejections[f"{family}: {cand.reason.split(' ')[0]}"] += 1
             if feasible:
                 return cands, min(feasible, key=lambda i: cands[i].cost)
-        # none within the curvature limit: the least bent collision-free one (the car is slow
-        # there and steers at its limit), so a track at the car's limit does not stop it
+            if family == "shortest":
+                # none within the curvature limit: the least bent collision-free one (the car
+                # is slow there and steers at its limit), so a track at the car's limit does
+                # not stop it; only with none at all, the crawl
+                clear = [i for i, cand in enumerate(cands) if cand.collision_free]
+                if clear:
+                    return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm,
+                                                            cands[i].cost))
         clear = [i for i, cand in enumerate(cands) if cand.collision_free]
         if clear:
             return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
         return cands, -1
 
-    def _families(self, speed_mps: float) -> list[tuple[str, FloatArray, float, float]]:
-        """(name, end offsets (m), horizon (m), speed cap (m/s)) in the order they are tried."""
+    def _families(self, speed_mps: float) -> list[tuple[str, FloatArray, float, float, float]]:
+        """(name, end offsets (m), horizon (m), speed cap (m/s), full cone margin (m)) in the
+        order they are tried."""
         c = self.config
         horizon = self.horizon_m(speed_mps)
         wide = np.linspace(-c.offsets_wide_max_m, c.offsets_wide_max_m,
                            max(c.offsets_wide_count, 1))
         short = max(0.5 * c.horizon_min_m, 2.0 * c.path_step_m * 4)
+        full, near = c.cone_clearance_m, c.cone_clearance_near_m
         return [
-            ("nominal", self.offsets(), horizon, math.inf),
-            ("wide", wide, horizon, math.inf),
-            ("short", wide, c.horizon_min_m, c.fallback_speed_mps),
-            ("shortest", wide, short, c.fallback_speed_mps),
+            ("nominal", self.offsets(), horizon, math.inf, full),
+            ("wide", wide, horizon, math.inf, full),
+            ("short", wide, c.horizon_min_m, c.fallback_speed_mps, full),
+            ("shortest", wide, short, c.fallback_speed_mps, full),
+            ("crawl", wide, c.horizon_min_m, c.crawl_speed_mps, near),
+            ("crawl short", wide, short, c.crawl_speed_mps, near),
         ]
 
     def _family(
@@ -153,6 +166,7 @@ class ManoeuvreGenerator:
         offsets: FloatArray,
         horizon: float,
         speed_cap_mps: float,
+        margin_m: float,
     ) -> list[Candidate]:
         c = self.config
         if start is not None:
@@ -184,7 +198,7 @@ class ManoeuvreGenerator:
             xy = frame.frenet_to_xy(s, d)
             heading, kappa = _path_geometry(xy)
             cand = self._grade(float(off), s, d, xy, heading, kappa, in_h, tree, last_offset_m,
-                               speed_mps)
+                               speed_mps, margin_m)
             if math.isfinite(speed_cap_mps):
                 cand = replace(cand, speed_cap_mps=speed_cap_mps)
             cands.append(cand)
@@ -202,7 +216,10 @@ class ManoeuvreGenerator:
         tree: cKDTree | None,
         last_offset_m: float | None,
         speed_mps: float = 0.0,
+        margin_m: float | None = None,
     ) -> Candidate:
+        """A candidate's checks and cost; ``margin_m`` the full cone margin (None: the
+        configured ``cone_clearance_m``)."""
         c = self.config
         reason = ""
         k_abs = np.abs(kappa[1:-1]) if len(kappa) > 2 else np.abs(kappa)
@@ -219,12 +236,14 @@ class ManoeuvreGenerator:
             dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
             gap = dist.reshape(len(xy), -1).min(axis=1) - self.circle_radius_m
             clearance = float(np.min(gap))
-            # the hard margin grows from contact where the car is now (it is there) to the
-            # full margin ahead; the preferred room is a cost, not a limit
+            # the hard margin grows from where the car is now (it is there: no closer than it
+            # already stands, if that is inside the near margin) to the full margin ahead; the
+            # preferred room is a cost, not a limit
             u = s - s[0]
             ramp = max(c.clearance_ramp_m, abs(speed_mps) * c.clearance_ramp_time_s, 1e-6)
-            margin = c.cone_clearance_near_m + (c.cone_clearance_m - c.cone_clearance_near_m) \
-                * np.clip(u / ramp, 0.0, 1.0)
+            full = c.cone_clearance_m if margin_m is None else margin_m
+            near = min(c.cone_clearance_near_m, full, max(float(gap[0]), 0.0))
+            margin = near + (full - near) * np.clip(u / ramp, 0.0, 1.0)
             slack = gap - margin
             i = int(np.argmin(slack))
             if slack[i] < 0.0:

@@ -39,6 +39,9 @@ logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 
+MIN_START_LINE_M = 2.0
+"""Big orange cones spread less than this (m) stand on one side of the track only."""
+
 
 def empty_targets() -> TargetStates:
     """A manoeuvre with no states."""
@@ -81,11 +84,13 @@ class PathPlanner:
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
         self._origin_yaw_rad = 0.0
+        """Arc length (m) from the start to the start line on a closed explored track."""
         self._start_crossings = 0
         self._explored_m = 0.0
         """Distance (m) driven while exploring, from the poses the planner saw."""
+        self._last_crossing_m = 0.0
+        """``_explored_m`` at the last crossing of the start line."""
         self._last_xy: tuple[float, float] | None = None
-        """Arc length (m) from the start to the start line while exploring autonomously."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
 
@@ -151,8 +156,9 @@ class PathPlanner:
         c = self.config
         exploring = source == "cones" and not closed and self._origin_xy is not None
         try:
+            smoothing = c.exploration_smoothing_m if exploring else c.baseframe_smoothing_m
             frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
-                                    smoothing_m=c.baseframe_smoothing_m, step_m=c.baseframe_step_m)
+                                    smoothing_m=smoothing, step_m=c.baseframe_step_m)
             cones = map_state.cones
             raced = None
             if closed and len(cones) >= 8 and not self_intersects(frame.xy_m, True):
@@ -344,34 +350,67 @@ class PathPlanner:
                 self._count_from_origin(map_state, s)
 
     def _explore_progress(self, x_m: float, y_m: float, map_state: MapState) -> None:
-        """Distance driven while exploring, and laps counted where the car crosses its start
-        line again (across the start heading, within a track width of the start: the big orange
-        cones' line when they are mapped, else the start) while no loop is mapped: with no cone
-        colours the big orange cones and the loop's closure may never come, and the lap is
-        still done."""
+        """Distance driven while exploring, and laps counted where the car crosses the start
+        line while no loop is mapped (with no cone colours the big orange cones and the loop's
+        closure may never come, and the lap is still done).
+
+        The start line is the line through the big orange cones mapped near the start, across
+        the track as they stand (a layout may start the car a quarter of a lap before them, its
+        line not square to the car's start heading), crossed within a metre of their ends; with
+        those of one side only (the other not seen in colour), the car passes abreast of them
+        within a track width; with none, the line across the start heading within a track
+        width of the start. A
+        crossing is a lap only ``lap_min_m`` after the last (or the start): a car that starts
+        behind the line starts the clock there."""
         assert self._origin_xy is not None
-        ox, oy = self._origin_xy
-        c, s = math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)
+        point, along_xy, half_m = self._start_line(map_state)
+        here = np.array([x_m, y_m])
+        if self._last_xy is not None:
+            last = np.asarray(self._last_xy)
+            step_m = float(np.hypot(*(here - last)))
+            self._explored_m += step_m
+            if along_xy is None:  # the car's own direction: it passes abreast of the point
+                along_xy = np.array([(here - last)[1], -(here - last)[0]]) / max(step_m, 1e-9)
+            normal = np.array([-along_xy[1], along_xy[0]])
+            before, after = float((last - point) @ normal), float((here - point) @ normal)
+            if before < 0.0 <= after:
+                cross = last + (here - last) * (before / (before - after))
+                if abs(float((cross - point) @ along_xy)) <= half_m:
+                    if self._explored_m - self._last_crossing_m >= self.config.lap_min_m:
+                        self._start_crossings += 1
+                        self.lap = max(self.lap, self._start_crossings)
+                        logger.info("exploring: start line crossed after %.0f m: lap %d",
+                                    self._explored_m, self.lap)
+                    self._last_crossing_m = self._explored_m
+        self._last_xy = (x_m, y_m)
+
+    def _start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
+        """The start line while exploring: a point on it, its unit direction (the car crosses
+        it towards the left of that direction; None: square to the car's own direction, the
+        big cones of one side only) and the half-length (m) about the point within which a
+        crossing counts."""
+        assert self._origin_xy is not None
+        origin = np.asarray(self._origin_xy, np.float64)
+        heading = np.array([math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)])
         cones = map_state.cones
-        line_m = 0.0
         if len(cones):
             big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)]
-            big = big[np.hypot(big[:, 0] - ox, big[:, 1] - oy) < self.config.start_line_search_m]
+            big = big[np.hypot(*(big - origin).T) < self.config.start_line_search_m]
             if len(big):
-                line_m = float(np.mean((big[:, 0] - ox) * c + (big[:, 1] - oy) * s))
-        along = (x_m - ox) * c + (y_m - oy) * s - line_m
-        lateral = -(x_m - ox) * s + (y_m - oy) * c
-        if self._last_xy is not None:
-            last_along = (self._last_xy[0] - ox) * c + (self._last_xy[1] - oy) * s - line_m
-            self._explored_m += math.hypot(x_m - self._last_xy[0], y_m - self._last_xy[1])
-            laps_driven = self._explored_m / self.config.min_loop_length_m
-            if last_along < 0.0 <= along and abs(lateral) < self.config.nominal_track_width_m \
-                    and laps_driven > self._start_crossings + 1:
-                self._start_crossings += 1
-                self.lap = max(self.lap, self._start_crossings)
-                logger.info("exploring: start line crossed after %.0f m: lap %d",
-                            self._explored_m, self.lap)
-        self._last_xy = (x_m, y_m)
+                centre = big.mean(axis=0)
+                # the line's direction: the big cones' principal axis when they stand on both
+                # sides (further apart than a track is narrow), else across the start heading
+                _, _, vt = np.linalg.svd(big - centre)
+                along = vt[0]
+                extent = np.abs((big - centre) @ along)
+                if len(big) < 2 or 2.0 * float(extent.max()) < MIN_START_LINE_M:
+                    return centre, None, self.config.nominal_track_width_m
+                forward = np.array([-along[1], along[0]])  # crossed towards its left
+                if float(forward @ (centre - origin)) + float(forward @ heading) < 0.0:
+                    along = -along
+                return centre, along, float(extent.max()) + 1.0
+        along = np.array([heading[1], -heading[0]])
+        return origin, along, self.config.nominal_track_width_m
 
     def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
         """Laps of an explored track count from the start line (the big orange cones nearest
@@ -466,9 +505,10 @@ class PathPlanner:
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
             self._last_chosen = None
-            logger.warning("no feasible manoeuvre at s=%.1f m: stopping (rejected so far: %s)",
-                           s0, dict(self.generator.rejections))
             fallback = max(range(len(cands)), key=lambda i: cands[i].clearance_m)
+            logger.warning("no feasible manoeuvre at s=%.1f m: stopping (the roomiest candidate: "
+                           "%s; rejected so far: %s)", s0, cands[fallback].reason,
+                           dict(self.generator.rejections))
             targets = self._targets(cands[fallback], now_s, stop=True)
         return Plan(
             timestamp_s=now_s,

@@ -12,8 +12,8 @@ Steps, each a few array operations over the sweep:
 4. Preliminary filter: a surface narrower than a cone, nearer than ``max_range_m``, of more
    than one return.
 5. Surfaces whose x-y midpoints are close are merged into preliminary cones.
-6. Cluster filter: more than ``cluster_max_cones`` preliminary cones close together (grass,
-   bushes, barriers) are all removed.
+6. Cluster filter: a preliminary cone with more than ``cluster_max_cones`` within
+   ``cluster_radius_m`` (grass, bushes, barriers) is removed with its neighbours.
 7. Final filter: seen in at least ``min_layers`` rings, at least ``min_points`` returns, top
    below ``large_height_m`` (+ tolerance). Size: a top above ``small_height_m`` means large
    (the seed's rule); a lower top is compared with what each cone size would show on each ring
@@ -175,8 +175,7 @@ class ConeDetector:
         cy = np.bincount(pcone, py, n_cones) / npts
 
         # --- cluster filter
-        neighbours = _neighbour_counts(cx, cy, cfg.cluster_radius_m)
-        clustered = neighbours > cfg.cluster_max_cones
+        clustered = _clustered(cx, cy, cfg.cluster_radius_m, cfg.cluster_max_cones)
         self.stats["preliminary"] = n_cones
         self.stats["clustered"] = int(clustered.sum())
 
@@ -266,6 +265,20 @@ def _components(x: NDArray[np.float64], y: NDArray[np.float64], dist_m: float
         label = new
     _, dense = np.unique(label, return_inverse=True)
     return dense.astype(np.int64)
+
+
+def _clustered(x: NDArray[np.float64], y: NDArray[np.float64], radius_m: float,
+               max_cones: int) -> NDArray[np.bool_]:
+    """Points in a dense group, (N,): those with more than ``max_cones`` points (themselves
+    included) within ``radius_m``, and every point within ``radius_m`` of one of them (the
+    ends of a row of grass tufts have few neighbours of their own)."""
+    dense = _neighbour_counts(x, y, radius_m) > max_cones
+    if not dense.any():
+        return dense
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(np.c_[x[dense], y[dense]]).query(np.c_[x, y], distance_upper_bound=radius_m)[0]
+    return np.asarray(near < radius_m)
 
 
 def _neighbour_counts(x: NDArray[np.float64], y: NDArray[np.float64], radius_m: float

@@ -234,3 +234,45 @@ def test_sweep_with_nothing_in_the_window_still_reported() -> None:
     assert all(not s.cones and s.point_count > 1000 for s in sweeps)
     last = parser.last_sweep
     assert last is not None and last.points.shape[0] < 0.25 * last.return_count
+
+
+def _static_cones(cones_xy_m: np.ndarray, sweeps: int = 4) -> list[LidarCones]:
+    """Sweeps of a standing car (at the origin, heading +x) seeing small cones at
+    ``cones_xy_m`` (N, 2), world = vehicle frame; the first, partial sweep dropped."""
+    config = AppConfig()
+    track = SimpleNamespace(cones_xy_m=cones_xy_m,
+                            sizes=np.full(len(cones_xy_m), int(ConeSize.SMALL)))
+    model = LidarModel(config, np.random.default_rng(5))
+    parser = LidarParser(config.sensors.lidar, config.car)
+    out: list[LidarCones] = []
+    for i in range(1, int(round((sweeps + 1) * 0.1 / 0.005)) + 1):
+        t = i * 0.005
+        for raw in model.poll(t, GroundTruth(t, 0, 0, 0, 0, 0, 0), None, track):
+            out.extend(parser.feed(raw.timestamp_s, raw.payload))
+    return out[1:]
+
+
+def test_cones_close_along_a_tight_boundary_are_kept() -> None:
+    """Round the tightest hairpins cones stand 0.7 m apart along a boundary (three within the
+    cluster radius): every one is still a cone, where the cluster filter would have taken a
+    line of them for a bush."""
+    angles = np.arange(-0.55, 0.56, 0.7 / 1.7)  # 1.7 m ring, 0.7 m between cones
+    ring = np.c_[3.5 + 1.7 * np.sin(angles), 2.2 - 1.7 * np.cos(angles)]
+    sweeps = _static_cones(ring)
+    assert len(sweeps) >= 3
+    for sweep in sweeps:
+        got = np.array([(c.x_m, c.y_m) for c in sweep.cones]).reshape(-1, 2)
+        assert len(got) == len(ring), (len(got), len(ring))
+        nearest = np.min(np.hypot(*(got[:, None, :] - ring[None, :, :]).transpose(2, 0, 1)),
+                         axis=0)
+        assert np.all(nearest < 0.1)
+
+
+def test_bush_of_cone_sized_surfaces_is_not_a_cone() -> None:
+    """Tall grass beside the track, cone-sized tufts 0.4 m apart (five within 0.9 m of the
+    middle one), is removed; a lone cone beside it is kept."""
+    bush = np.c_[np.full(7, 6.0), 2.0 + 0.4 * np.arange(7)]
+    lone = np.array([[6.0, -3.0]])
+    for sweep in _static_cones(np.vstack([bush, lone])):
+        got = [(c.x_m, c.y_m) for c in sweep.cones]
+        assert len(got) == 1 and math.hypot(got[0][0] - 6.0, got[0][1] + 3.0) < 0.1, got

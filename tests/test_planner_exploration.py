@@ -248,3 +248,47 @@ def test_an_autocross_never_closes_its_loop_and_ends_its_lap_at_the_line() -> No
         laps.append(planner.lap)
     assert planner.rejects["loop_in_autocross"] > 0
     assert laps[-1] == 1 and laps.count(0) > 150
+
+
+@pytest.mark.parametrize("sides", ["both", "outer"])
+def test_the_lap_ends_at_big_orange_cones_a_quarter_lap_from_the_start(sides: str) -> None:
+    """A layout may place the car a quarter of a lap before its big orange cones (SmallCircle,
+    a community layout), their line not square to the car's start heading, and with only the
+    outer side's seen in colour: the car passes them first as it starts (the lap's clock
+    starts), and the lap ends when it passes them again, not when it passes its own start."""
+    from planner_closed_loop_helpers import cone_map
+
+    from common.messages import MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    planner = PathPlanner(config.planner, config.car, "autocross")
+    radius_m, half_m = 8.0, 1.5
+    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
+    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
+    quarter = math.pi / 2.0  # the line: a quarter lap on, at (8, 8), radial
+    big = [(r * math.sin(quarter + da), radius_m - r * math.cos(quarter + da))
+           for r in ((radius_m - half_m, radius_m + half_m) if sides == "both"
+                     else (radius_m + half_m,)) for da in (-0.03, 0.03)]
+    cones = np.r_[cones, np.asarray(big)]
+    colours = np.r_[colours, np.full(len(big), int(ConeColour.BIG_ORANGE))]
+    everything = cone_map(cones, colours)
+
+    def state(t_s: float, angle: float) -> MapState:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        pose = PoseEstimate(t_s, x, y, angle, 4.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        return MapState(t_s, pose, everything, loop_closed=False)
+
+    planner.start_autonomous(state(0.0, 0.0))
+    angles = np.linspace(0.0, 3.0 * math.pi, 300)
+    laps = []
+    for k, angle in enumerate(angles[1:], 1):
+        planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
+        laps.append(planner.lap)
+    first = int(np.argmax(np.asarray(laps) == 1)) + 1
+    assert laps[-1] == 1
+    assert abs(angles[first] - (quarter + 2.0 * math.pi)) < 0.1

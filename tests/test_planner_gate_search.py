@@ -119,3 +119,24 @@ def test_same_coloured_cones_are_never_a_gate() -> None:
     path_blue, _ = gate_search_path(cones, np.full(len(cones), BLUE), np.zeros(2), 0.0,
                                     2.0 * HALF_WIDTH_M)
     assert len(path_blue) == 1
+
+
+def test_a_ring_of_close_cones_keeps_the_path_round_its_middle() -> None:
+    """A rules-minimum hairpin as a whole circle (inner cones on 1.7 m, 0.7 m apart; outer on
+    4.7 m, 1 m apart): the centre points stand some 0.4 m apart and are merged in runs, never
+    into one point that takes the whole bend with it (the path cut 0.9 m inside the middle,
+    onto the inner cones)."""
+    centre = np.array([0.0, 3.2])
+    inner_a = np.linspace(0.0, 2.0 * np.pi, 15, endpoint=False)
+    outer_a = np.linspace(0.0, 2.0 * np.pi, 30, endpoint=False)
+    inner = centre + 1.7 * np.c_[np.sin(inner_a), -np.cos(inner_a)]
+    outer = centre + 4.7 * np.c_[np.sin(outer_a), -np.cos(outer_a)]
+    start = np.array([0.0, 0.0])  # on the middle (3.2 m), heading +x: the car turns left
+    ahead = lambda xy: (xy[:, 0] > -0.5) & (xy[:, 1] < 6.5)  # noqa: E731 (half a lap seen)
+    xy = np.r_[inner[ahead(inner)], outer[ahead(outer)]]
+    col = np.r_[np.full(int(ahead(inner).sum()), BLUE), np.full(int(ahead(outer).sum()), YELLOW)]
+    path, _ = gate_search_path(xy, col, start, 0.0, 3.5)
+    assert len(path) >= 6
+    radius = np.hypot(*(path[1:] - centre).T)
+    assert np.all(np.abs(radius - 3.2) < 0.35), radius
+    assert float(np.max(np.hypot(*np.diff(path, axis=0).T))) < 2.5

@@ -154,4 +154,31 @@ def test_search_widens_when_every_configured_offset_is_blocked() -> None:
     _, best = blocked.generate(frame, 0.0, 0.0, 0.0, 3.0, closed_wall, None)
     assert best == -1
     assert {k.split(":")[0] for k in blocked.rejections} == {"nominal", "wide", "short",
-                                                              "shortest"}
+                                                              "shortest", "crawl",
+                                                              "crawl short"}
+
+
+def test_a_corridor_with_only_a_cones_radius_to_spare_is_crawled() -> None:
+    """Cones 0.17 m from the car's body on both sides all along a straight: more than a cone's
+    radius (0.15 m), less than the full margin (0.2 m). Every family at the full margin is
+    refused; the crawl, at the cone's radius and walking pace, drives on."""
+    from planner.baseframe import SplineBaseframe
+    from planner.config import PlannerConfig
+    from planner.manoeuvres import ManoeuvreGenerator
+
+    config = PlannerConfig()
+    generator = ManoeuvreGenerator(config, CarConfig())
+    room = generator.circle_radius_m + 0.17
+    frame = SplineBaseframe(np.c_[np.linspace(0.0, 80.0, 81), np.zeros(81)], False)
+    x = np.arange(-2.0, 40.0, 0.5)
+    walls = np.r_[np.c_[x, np.full(len(x), room)], np.c_[x, np.full(len(x), -room)]]
+    cands, best = generator.generate(frame, 0.0, 0.0, 0.0, 3.0, walls, None)
+    assert best >= 0
+    assert cands[best].speed_cap_mps == config.crawl_speed_mps
+    assert abs(cands[best].offset_m) < 0.01
+    assert generator.rejections["shortest: clearance"] > 0
+    # with room for the full margin the configured offsets do
+    wider = ManoeuvreGenerator(config, CarConfig())
+    walls[:, 1] *= (room + 0.05) / room
+    cands, best = wider.generate(frame, 0.0, 0.0, 0.0, 3.0, walls, None)
+    assert best >= 0 and cands[best].speed_cap_mps == math.inf
