@@ -83,8 +83,8 @@ class PathPlanner:
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
-        self._origin_yaw_rad = 0.0
         """Arc length (m) from the start to the start line on a closed explored track."""
+        self._origin_yaw_rad = 0.0
         self._start_crossings = 0
         self._explored_m = 0.0
         """Distance (m) driven while exploring, from the poses the planner saw."""
@@ -359,9 +359,8 @@ class PathPlanner:
         line not square to the car's start heading), crossed within a metre of their ends; with
         those of one side only (the other not seen in colour), the car passes abreast of them
         within a track width; with none, the line across the start heading within a track
-        width of the start. A
-        crossing is a lap only ``lap_min_m`` after the last (or the start): a car that starts
-        behind the line starts the clock there."""
+        width of the start. A crossing is a lap only ``lap_min_m`` after the last (or the
+        start): a car that starts behind the line starts the clock there."""
         assert self._origin_xy is not None
         point, along_xy, half_m = self._start_line(map_state)
         here = np.array([x_m, y_m])
