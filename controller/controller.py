@@ -193,10 +193,13 @@ class Controller:
         elif state in (AsState.READY, AsState.FINISHED) or (
                 state == AsState.DRIVING and status.stop == StopKind.NONE
                 and not self.safety.may_move(now_s)):
-            # READY, FINISHED and the first seconds of DRIVING (the rules): the brake holds
+            # READY, FINISHED and the first seconds of DRIVING (the rules): the brake holds;
+            # in DRIVING the wheels are turned to the path meanwhile (a car that starts in a
+            # bend would otherwise roll ahead straight while its steering turns in)
             self.longitudinal.reset()
             brake = cfg.hold_brake
-            steer_target = None
+            if state != AsState.DRIVING:
+                steer_target = None
         elif status.stop == StopKind.EMERGENCY or state == AsState.EMERGENCY:
             self.longitudinal.reset()
             brake = 1.0

@@ -39,9 +39,10 @@ class PlannerConfig:
     baseframe_resample_m: float = 1.0
     baseframe_smoothing_m: float = 2.5
     """Gaussian smoothing (standard deviation along the path) before the spline fit."""
-    exploration_smoothing_m: float = 1.0
-    """The same while exploring: the gates' centre points are as good as the map, and 2.5 m
-    pulled the path 0.4 m inside a 3 m bend (a rules-minimum hairpin) onto the inner cones."""
+    smoothing_per_radius: float = 0.5
+    """The smoothing's largest standard deviation in a bend, per metre of its radius: 2.5 m
+    everywhere pulled the path 0.3 m inside a 3 m bend (a rules-minimum hairpin) onto the inner
+    cones, while 1 m everywhere kept the zig-zag of gates far apart along the track."""
     baseframe_step_m: float = 0.25
     centre_on_cones: bool = True
     max_centring_shift_m: float = 2.0

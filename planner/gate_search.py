@@ -282,6 +282,10 @@ class _Search:
             turn = abs(math.remainder(step_yaw - p.yaw_rad, 2.0 * math.pi))
             if turn > MAX_TURN_RAD:
                 continue
+            gate_vec = self.xy[b] - self.xy[a]
+            across_m = abs(math.cos(step_yaw) * gate_vec[1] - math.sin(step_yaw) * gate_vec[0])
+            if across_m < MIN_GATE_M:
+                continue  # crossed so obliquely that it leaves no track width: a boundary
             nxt = int(self.neighbours[p.triangle][k])
             if nxt in p.triangles:
                 continue

@@ -91,6 +91,9 @@ class PathPlanner:
         self._last_crossing_m = 0.0
         """``_explored_m`` at the last crossing of the start line."""
         self._last_xy: tuple[float, float] | None = None
+        self._point_ahead_m: float | None = None
+        """How far ahead of the car (m) the start line's point was, when the car passes it
+        abreast (the big cones of one side only)."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
 
@@ -156,9 +159,10 @@ class PathPlanner:
         c = self.config
         exploring = source == "cones" and not closed and self._origin_xy is not None
         try:
-            smoothing = c.exploration_smoothing_m if exploring else c.baseframe_smoothing_m
             frame = SplineBaseframe(points, closed, resample_m=c.baseframe_resample_m,
-                                    smoothing_m=smoothing, step_m=c.baseframe_step_m)
+                                    smoothing_m=c.baseframe_smoothing_m,
+                                    step_m=c.baseframe_step_m,
+                                    sigma_per_radius=c.smoothing_per_radius)
             cones = map_state.cones
             raced = None
             if closed and len(cones) >= 8 and not self_intersects(frame.xy_m, True):
@@ -368,19 +372,37 @@ class PathPlanner:
             last = np.asarray(self._last_xy)
             step_m = float(np.hypot(*(here - last)))
             self._explored_m += step_m
-            if along_xy is None:  # the car's own direction: it passes abreast of the point
-                along_xy = np.array([(here - last)[1], -(here - last)[0]]) / max(step_m, 1e-9)
-            normal = np.array([-along_xy[1], along_xy[0]])
-            before, after = float((last - point) @ normal), float((here - point) @ normal)
-            if before < 0.0 <= after:
-                cross = last + (here - last) * (before / (before - after))
-                if abs(float((cross - point) @ along_xy)) <= half_m:
-                    if self._explored_m - self._last_crossing_m >= self.config.lap_min_m:
-                        self._start_crossings += 1
-                        self.lap = max(self.lap, self._start_crossings)
-                        logger.info("exploring: start line crossed after %.0f m: lap %d",
-                                    self._explored_m, self.lap)
-                    self._last_crossing_m = self._explored_m
+            crossed, off_m = False, math.inf
+            if along_xy is None:
+                # the car passes abreast of the point: it was ahead and is now beside or behind
+                # (the sign kept from the last call: a plane that turns with the car in a bend
+                # may jump over the car between two calls)
+                if step_m > 1e-6:
+                    forward = (here - last) / step_m
+                    ahead_m = float((point - here) @ forward)
+                    was_m = self._point_ahead_m
+                    crossed = was_m is not None and was_m > 0.0 >= ahead_m
+                    off_m = abs(float((here - point) @ np.array([forward[1], -forward[0]])))
+                    self._point_ahead_m = ahead_m
+            else:
+                self._point_ahead_m = None
+                normal = np.array([-along_xy[1], along_xy[0]])
+                before, after = float((last - point) @ normal), float((here - point) @ normal)
+                if before < 0.0 <= after:
+                    crossed = True
+                    cross = last + (here - last) * (before / (before - after))
+                    off_m = abs(float((cross - point) @ along_xy))
+            if crossed and off_m <= half_m:
+                if self._explored_m - self._last_crossing_m >= self.config.lap_min_m:
+                    self._start_crossings += 1
+                    self.lap = max(self.lap, self._start_crossings)
+                    logger.info("exploring: start line crossed after %.0f m: lap %d",
+                                self._explored_m, self.lap)
+                else:
+                    logger.debug("exploring: start line crossed after %.0f m, %.0f m after the "
+                                 "last: not a lap", self._explored_m,
+                                 self._explored_m - self._last_crossing_m)
+                self._last_crossing_m = self._explored_m
         self._last_xy = (x_m, y_m)
 
     def _start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
