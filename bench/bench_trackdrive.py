@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import copy
 import math
+import re
 import statistics
 import sys
 import tempfile
@@ -35,7 +36,8 @@ FSG = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks" / "amz_
 
 
 def track_list(text: str) -> list[str]:
-    """``N`` (gen:1..N) or comma-separated names, files and folders (their .csv/.yaml files)."""
+    """``N`` (gen:1..N) or comma-separated names, files, folders (their .csv/.yaml files) and
+    ranges of generated tracks (``gen:1..30``)."""
     text = text.strip()
     if text.isdigit():
         count = int(text)
@@ -47,7 +49,13 @@ def track_list(text: str) -> list[str]:
         if not part:
             continue
         path = Path(part)
-        if path.is_dir():
+        span = re.fullmatch(r"gen:(\d+)\.\.(\d+)", part)
+        if span:
+            first, last = int(span.group(1)), int(span.group(2))
+            if not 1 <= first <= last:
+                raise argparse.ArgumentTypeError(f"empty or bad range {part!r}")
+            tracks.extend(f"gen:{i}" for i in range(first, last + 1))
+        elif path.is_dir():
             found = sorted(str(f) for f in path.iterdir() if f.suffix in (".csv", ".yaml"))
             if not found:
                 raise argparse.ArgumentTypeError(f"no .csv or .yaml track in {part!r}")
@@ -62,7 +70,8 @@ def track_list(text: str) -> list[str]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench trackdrive``."""
     parser.add_argument("--tracks", type=track_list, default=track_list("6"),
-                        help="N (gen:1..N, default 6) or a comma list of names, files, folders")
+                        help="N (gen:1..N, default 6) or a comma list of names, files, folders, "
+                             "gen:A..B ranges")
     parser.add_argument("--hard", action="store_true",
                         help="also the hard layouts (hard:hairpins, ...)")
     parser.add_argument("--fsg", action="store_true", help="also run FSG (shared data)")
