@@ -109,6 +109,8 @@ class Worker:
         self.link = link
         self.sensors = make_sensors(config, clock, worker_sensors(config))
         self.mapper = make_mapper(config) if options.control else None
+        # on the car the racing line is built beside the planner's loop, not in it
+        config.planner.racing_line_background = True
         self.planner = make_planner(config) if options.control else None
         self.hasher = HashSink()
         self.recorder: Any = None
@@ -342,7 +344,8 @@ class Worker:
             for name, close in (("sensors", self.sensors.stop),
                                 ("recorder", getattr(self.recorder, "close", None)),
                                 ("live view", getattr(self.live, "close", None)),
-                                ("visualiser", getattr(self.visualiser, "close", None))):
+                                ("visualiser", getattr(self.visualiser, "close", None)),
+                                ("planner", getattr(self.planner, "close", None))):
                 if close is None:
                     continue
                 try:

@@ -60,6 +60,10 @@ class PlannerConfig:
     """Room the racing line leaves between the car's body and a cone's base: tracking plus
     localisation error."""
     racing_line_smoothing_m: float = 1.0
+    racing_line_background: bool = False
+    """Build the racing line in a process of its own and drive the centre line until it is
+    done (``drive``: the planner's loop does not stop for a second); off in simulation, which
+    then stays the same from one run to the next."""
 
     # Manoeuvres (seed 002, 3.2.2)
     offsets_max_m: float = 1.5

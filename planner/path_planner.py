@@ -24,7 +24,7 @@ from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
-from planner.racing_line import racing_line
+from planner.race_job import BackgroundRace, RaceLine, build_race_line
 from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
@@ -32,7 +32,7 @@ from planner.speed_profile import (
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
-from planner.track_model import TrackModel, self_intersects, track_from_cones
+from planner.track_model import TrackModel, self_intersects
 from planner.waypoints import WaypointBook, waypoints_from_cones
 
 logger = logging.getLogger(__name__)
@@ -61,6 +61,7 @@ class PathPlanner:
         self.mission = mission
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
+        self._race_worker = BackgroundRace() if c.racing_line_background else None
         self.generator = ManoeuvreGenerator(c, car)
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)
@@ -194,29 +195,72 @@ class PathPlanner:
 
     def _race_frame(self, guide: SplineBaseframe, map_state: MapState) -> SplineBaseframe | None:
         """The racing line inside the track the map's cones mark along ``guide`` (a lap), as a
-        baseframe; None (logged) when the cones do not make a track."""
-        c, car = self.config, self.car
+        baseframe; None (logged) when the cones do not make a track, or when it is being built
+        in the background (``racing_line_background``: :meth:`plan` swaps it in when done)."""
+        c = self.config
         cones = map_state.cones
+        if self._race_worker is not None:
+            self._race_worker.submit(cones.xy_m, cones.colour, guide.xy_m, c, self.car,
+                                     self.limits)
+            logger.info("racing line: being built in the background; the centre line meanwhile")
+            return None
         try:
-            model = track_from_cones(cones.xy_m, cones.colour, guide.xy_m, True,
-                                     step_m=c.track_step_m, max_lateral_m=c.track_max_lateral_m,
-                                     nominal_width_m=c.nominal_track_width_m)
-            if c.racing_line:
-                line, _ = racing_line(model, half_width_m=car.width_m / 2.0,
-                                      front_m=car.length_m - car.rear_overhang_m,
-                                      clearance_m=c.cone_radius_m + c.racing_margin_m,
-                                      limits=self.limits)
-            else:
-                line = model.centre_xy_m
-            frame = SplineBaseframe(line, True, resample_m=c.baseframe_resample_m,
-                                    smoothing_m=c.racing_line_smoothing_m,
-                                    step_m=c.baseframe_step_m)
+            return self._race_line_frame(build_race_line(cones.xy_m, cones.colour, guide.xy_m,
+                                                         c, self.car, self.limits))
         except (TrackError, ValueError) as exc:
             self.rejects["track_model"] += 1
             logger.warning("track model from the cone map failed (%s): the guide's frame", exc)
             return None
-        self.track_model = model
+
+    def _race_line_frame(self, race: RaceLine) -> SplineBaseframe:
+        """The baseframe along a built racing line (its track model kept)."""
+        c = self.config
+        frame = SplineBaseframe(race.line_xy_m, True, resample_m=c.baseframe_resample_m,
+                                smoothing_m=c.racing_line_smoothing_m, step_m=c.baseframe_step_m)
+        self.track_model = race.model
         return frame
+
+    def _take_race_line(self, map_state: MapState) -> None:
+        """Swap in the racing line built in the background, once it is done: the laps and the
+        car's place in the lap carry over to it."""
+        assert self._race_worker is not None
+        result = self._race_worker.poll()
+        if result is None:
+            return
+        if isinstance(result, BaseException):
+            self.rejects["track_model"] += 1
+            logger.warning("track model from the cone map failed (%s): the centre line stays",
+                           result)
+            return
+        try:
+            frame = self._race_line_frame(result)
+        except (TrackError, ValueError) as exc:
+            self.rejects["track_model"] += 1
+            logger.warning("racing line's baseframe failed (%s): the centre line stays", exc)
+            return
+        old, lap = self.frame, self.lap
+        laps_done = None  # laps past the start line, with the fraction of the lap (old frame)
+        if old is not None and old.closed and self._line_offset_m is not None:
+            laps_done = (self._progress_m - self._line_offset_m) / old.length_m
+        self.frame = frame
+        self._frame_msg = frame.to_message()
+        self._speed_mps = self._profile(frame)
+        self._reset_progress(map_state)
+        if laps_done is not None and self._line_offset_m is not None:
+            length = frame.length_m
+            fraction = ((self._progress_m - self._line_offset_m) / length) % 1.0
+            laps_new = round(laps_done - fraction) + fraction
+            self._progress_m = self._line_offset_m + laps_new * length
+        else:  # laps counted where the frame begins: the laps done carry on from there
+            self._progress_m += lap * frame.length_m
+        self.lap = max(lap, self.lap)
+        logger.info("racing line swapped in: %.1f m, lap %d", frame.length_m, self.lap)
+
+    def close(self) -> None:
+        """Stop the racing line's background process, if any."""
+        if self._race_worker is not None:
+            self._race_worker.close()
+            self._race_worker = None
 
     def _frame_from_cones(self, map_state: MapState) -> bool:
         c = self.config
@@ -485,6 +529,8 @@ class PathPlanner:
             return self._empty_plan(now_s)
         if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
             self._explore_progress(pose.x_m, pose.y_m, map_state)
+        if self._race_worker is not None and self._race_worker.pending:
+            self._take_race_line(map_state)
         if self.known is not None:
             if self._known_frame(map_state) and self._s_hint is None:
                 self._reset_progress(map_state)

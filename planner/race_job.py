@@ -1,0 +1,108 @@
+"""The racing line of a closed track, built where the planner's loop does not wait for it.
+
+Building the racing line (the track model from the cone map, then the minimum-curvature line
+inside it) takes about a second of CPU. In simulation the planner builds it in line, so a run
+stays the same from one time to the next; on the car (``drive``) a plan a second late is a car a
+second blind, so :class:`BackgroundRace` builds it in a process of its own while the planner goes
+on driving the track's centre line, and the planner swaps the line in at the first plan after it
+is done.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.car import CarConfig
+from planner.config import PlannerConfig
+from planner.racing_line import racing_line
+from planner.speed_profile import SpeedLimits
+from planner.track_model import TrackModel, track_from_cones
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class RaceLine:
+    """A built racing line: its points (N, 2) (m, world frame, one lap, not closed) and the
+    track model it lies in."""
+
+    line_xy_m: FloatArray
+    model: TrackModel
+
+
+def build_race_line(cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy_m: FloatArray,
+                    config: PlannerConfig, car: CarConfig, limits: SpeedLimits) -> RaceLine:
+    """The track the cones (N, 2) with their colours (N,) mark along the closed ``guide_xy_m``
+    (M, 2), and the racing line inside it (its centre line when ``config.racing_line`` is
+    off). Raises :class:`common.errors.TrackError` or ValueError when the cones make no track.
+    """
+    c = config
+    model = track_from_cones(cones_xy_m, colours, guide_xy_m, True, step_m=c.track_step_m,
+                             max_lateral_m=c.track_max_lateral_m,
+                             nominal_width_m=c.nominal_track_width_m)
+    if c.racing_line:
+        line, _ = racing_line(model, half_width_m=car.width_m / 2.0,
+                              front_m=car.length_m - car.rear_overhang_m,
+                              clearance_m=c.cone_radius_m + c.racing_margin_m, limits=limits)
+    else:
+        line = model.centre_xy_m
+    return RaceLine(np.asarray(line, np.float64), model)
+
+
+class BackgroundRace:
+    """One worker process that builds racing lines (:func:`build_race_line`) while the caller
+    goes on; one job at a time (a new one replaces the one waiting, whose result is dropped).
+
+    The process is started at once (``spawn``: the caller may run threads, which ``fork`` does
+    not copy safely) and warmed with the imports, so the first line is not a start-up late."""
+
+    def __init__(self) -> None:
+        context = multiprocessing.get_context("spawn")
+        self._pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
+        self._pool.submit(_warm)
+        self._job: Future[RaceLine] | None = None
+
+    def submit(self, cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy_m: FloatArray,
+               config: PlannerConfig, car: CarConfig, limits: SpeedLimits) -> None:
+        """Start building a racing line (the arrays are copied to the worker)."""
+        if self._job is not None:
+            self._job.cancel()
+        self._job = self._pool.submit(build_race_line, np.array(cones_xy_m),
+                                      np.array(colours), np.array(guide_xy_m), config, car,
+                                      limits)
+
+    @property
+    def pending(self) -> bool:
+        """A line is being built."""
+        return self._job is not None
+
+    def poll(self) -> RaceLine | BaseException | None:
+        """The finished line, or the error that ended its building; None while it is being
+        built (or none was asked for)."""
+        job = self._job
+        if job is None or not job.done():
+            return None
+        self._job = None
+        if job.cancelled():
+            return None
+        error = job.exception()
+        return error if error is not None else job.result()
+
+    def close(self) -> None:
+        """Stop the worker (a line being built is dropped)."""
+        if self._job is not None:
+            self._job.cancel()
+            self._job = None
+        self._pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _warm() -> bool:
+    return True
