@@ -52,6 +52,7 @@ def exploration_path(
     max_turn_rad: float = 1.0,
     max_points: int = 40,
     behind_m: float = 0.0,
+    driven_xy_m: FloatArray | None = None,
 ) -> FloatArray:
     """Path points (K, 2) (m, world frame) from the car at ``start_xy_m`` heading
     ``start_yaw_rad`` through the gates of ``cones_xy_m`` (N, 2) with their
@@ -62,6 +63,8 @@ def exploration_path(
     stretch of track, not the next gate). ``behind_m`` > 0: the first gate may be up to that far
     behind the start, and the path then begins at it instead of at the start (a car that has
     drifted from the middle of the track sees the offset instead of a path through itself).
+    ``driven_xy_m`` (M, 2): the way the car came, whose gates the search never takes again
+    (:func:`planner.gate_search.gate_search_path`).
     """
     xy = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     col = np.asarray(colours, np.int64).reshape(-1)
@@ -71,7 +74,8 @@ def exploration_path(
     yaw = float(start_yaw_rad)
     points = [point.copy()]
     unused = np.ones(len(xy), bool)
-    searched, bounding = gate_search_path(xy, col, point, yaw, track_width_m, behind_m)
+    searched, bounding = gate_search_path(xy, col, point, yaw, track_width_m, behind_m,
+                                          driven_xy_m)
     if len(searched) >= 3:
         # the triangulation's gates as far as both sides are known; marched on beyond
         points = [p.copy() for p in searched]

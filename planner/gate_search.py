@@ -34,6 +34,9 @@ BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
 MIN_GATE_M = 1.9
 """Shortest edge that is a gate (m): the FSD minimum track width is 3 m between the cones'
 inner sides; two cones of one side stand closer in a tight bend."""
+MIN_ACROSS_M = MIN_GATE_M
+"""Least track a gate leaves across the path's step through it (m): an edge crossed so
+obliquely that less is left is a boundary seen at a slant (cones of one side, colour unknown)."""
 MAX_GATE_WIDTHS = 2.7
 """Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
 MAX_TURN_RAD = 1.2
@@ -70,12 +73,15 @@ class _Partial:
 
 def gate_search_path(
     xy: FloatArray, col: NDArray[np.int64], start_xy_m: FloatArray, start_yaw_rad: float,
-    track_width_m: float, behind_m: float = 0.0,
+    track_width_m: float, behind_m: float = 0.0, driven_xy_m: FloatArray | None = None,
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
     """The best chain of gates from the car: path points (K, 2) (m, world frame; the first is
     the car, or with ``behind_m`` > 0 the midpoint of the car's gate when it is at most that far
     behind) and a mask (N,) of the cones ``xy`` (N, 2) of colours ``col`` (N,) that bound it
-    (but for its last gate's).
+    (but for its last gate's). ``driven_xy_m`` (M, 2): the way the car came (its last tens of
+    metres, not the last few): an edge it crossed is behind it, never a gate ahead (without
+    colours, the gap between a hairpin's inner end and the next stretch leads back up the way
+    in).
     K = 1 when there is no gate ahead."""
     start = np.asarray(start_xy_m, np.float64)
     used = np.zeros(len(xy), bool)
@@ -91,6 +97,9 @@ def gate_search_path(
     except (QhullError, ValueError):
         return nothing
     search = _Search(xy[near], col[near], tri, track_width_m)
+    if driven_xy_m is not None and len(driven_xy_m) >= 2:
+        search.behind = _edges_crossed(xy[near], tri.simplices,
+                                       np.asarray(driven_xy_m, np.float64))
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
@@ -103,6 +112,26 @@ def gate_search_path(
         points = []  # the path starts at the gate behind the car
     points.extend(_centre_points(xy[near], best.gates, np.asarray(best.points, np.float64)))
     return np.asarray(points, np.float64), used
+
+
+def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
+                   path_xy: FloatArray) -> set[tuple[int, int]]:
+    """The triangulation's edges (index pairs, lower first) that the polyline ``path_xy``
+    (M, 2) crosses."""
+    edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]],
+                                              simplices[:, [2, 0]]]), axis=1), axis=0)
+    p, r = xy[edges[:, 0]][:, None, :], (xy[edges[:, 1]] - xy[edges[:, 0]])[:, None, :]
+    q, u = path_xy[None, :-1, :], np.diff(path_xy, axis=0)[None, :, :]
+
+    def cross(v: FloatArray, w: FloatArray) -> FloatArray:
+        return np.asarray(v[..., 0] * w[..., 1] - v[..., 1] * w[..., 0], np.float64)
+
+    denom = cross(r, u)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = cross(q - p, u) / denom  # along the edge
+        v = cross(q - p, r) / denom  # along the path's segment
+    hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (v >= 0.0) & (v <= 1.0)
+    return {(int(a), int(b)) for a, b in edges[np.any(hit, axis=1)]}
 
 
 def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
@@ -161,6 +190,8 @@ class _Search:
         self.neighbours: NDArray[np.int32] = tri.neighbors
         self.width_m = track_width_m
         self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
+        self.behind: set[tuple[int, int]] = set()
+        """Edges (lower index first) the car has driven through: never a gate ahead."""
 
     # -- gates ---------------------------------------------------------------------------
     def _gate_cost(self, a: int, b: int, from_xy: FloatArray
@@ -184,6 +215,11 @@ class _Search:
         cost = WIDTH_COST * ((length - self.width_m) / self.width_m) ** 2
         cost += UNKNOWN_COST * sum(x not in (BLUE, YELLOW) for x in (ca, cb))
         return cost, mid, (left, right)
+
+    def _across_m(self, a: int, b: int, yaw_rad: float) -> float:
+        """The track edge (a, b) leaves across a path heading ``yaw_rad`` through it (m)."""
+        gx, gy = self.xy[b] - self.xy[a]
+        return abs(math.cos(yaw_rad) * float(gy) - math.sin(yaw_rad) * float(gx))
 
     def _containing_triangle(self, point: FloatArray) -> int:
         """Index of the triangle that contains ``point`` (2,), -1 for none (the same sign
@@ -218,6 +254,8 @@ class _Search:
                     if gate is None:
                         continue
                     mid = gate[1]
+                    if self._across_m(a, b, yaw) < MIN_ACROSS_M:
+                        continue  # a boundary beside the car, not the gate it came through
                     ahead = float((mid - start) @ np.array([c, s]))
                     if -behind_m <= ahead < best_ahead:
                         best_ahead, entry = ahead, ((a, b), mid, gate[2])
@@ -249,7 +287,7 @@ class _Search:
                     continue
                 step_yaw = math.atan2(rel[1], rel[0])
                 turn = abs(math.remainder(step_yaw - yaw, 2.0 * math.pi))
-                if turn > MAX_TURN_RAD:
+                if turn > MAX_TURN_RAD or self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
                     continue
                 out.append(_Partial(
                     (origin, (float(mid[0]), float(mid[1]))), t, (a, b), step_yaw,
@@ -268,7 +306,7 @@ class _Search:
         out = []
         for k in range(3):
             a, b = tri[(k + 1) % 3], tri[(k + 2) % 3]
-            if {a, b} == set(p.entry):
+            if {a, b} == set(p.entry) or (min(a, b), max(a, b)) in self.behind:
                 continue
             gate = self._gate_cost(a, b, here)
             if gate is None:
@@ -282,9 +320,7 @@ class _Search:
             turn = abs(math.remainder(step_yaw - p.yaw_rad, 2.0 * math.pi))
             if turn > MAX_TURN_RAD:
                 continue
-            gate_vec = self.xy[b] - self.xy[a]
-            across_m = abs(math.cos(step_yaw) * gate_vec[1] - math.sin(step_yaw) * gate_vec[0])
-            if across_m < MIN_GATE_M:
+            if self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
                 continue  # crossed so obliquely that it leaves no track width: a boundary
             nxt = int(self.neighbours[p.triangle][k])
             if nxt in p.triangles:

@@ -41,6 +41,10 @@ FloatArray = NDArray[np.float64]
 
 MIN_START_LINE_M = 2.0
 """Big orange cones spread less than this (m) stand on one side of the track only."""
+TRACE_STEP_M = 0.5
+"""Spacing of the driven trace kept while exploring (m)."""
+DRIVEN_NEAR_M, DRIVEN_BEHIND_M = 3.0, 40.0
+"""The stretch of the driven trace (m behind the car) whose gates are behind it."""
 
 
 def empty_targets() -> TargetStates:
@@ -92,6 +96,9 @@ class PathPlanner:
         self._last_crossing_m = 0.0
         """``_explored_m`` at the last crossing of the start line."""
         self._last_xy: tuple[float, float] | None = None
+        self._trace: collections.deque[tuple[float, float]] = collections.deque(
+            maxlen=int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2)
+        """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
         self._point_ahead_m: float | None = None
         """How far ahead of the car (m) the start line's point was, when the car passes it
         abreast (the big cones of one side only)."""
@@ -281,13 +288,16 @@ class PathPlanner:
                 closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
+            driven = self._driven_behind()
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                    (pose.x_m, pose.y_m), pose.yaw_rad,
-                                   track_width_m=c.nominal_track_width_m, behind_m=2.5)
+                                   track_width_m=c.nominal_track_width_m, behind_m=2.5,
+                                   driven_xy_m=driven)
             if len(pts) < 3:  # a gate or two: from the car itself
                 pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                        (pose.x_m, pose.y_m), pose.yaw_rad,
-                                       track_width_m=c.nominal_track_width_m)
+                                       track_width_m=c.nominal_track_width_m,
+                                       driven_xy_m=driven)
             if len(pts) == 2:  # one gate: a straight line to it
                 pts = pts[0] + np.linspace(0.0, 1.0, 4)[:, None] * (pts[1] - pts[0])
         if len(pts) < 3:
@@ -297,6 +307,18 @@ class PathPlanner:
         if ok and not closed:
             self.book.set_points(pts, closed=False)
         return ok
+
+    def _driven_behind(self) -> FloatArray | None:
+        """The way the car came while exploring (M, 2): from ``DRIVEN_BEHIND_M`` back to
+        ``DRIVEN_NEAR_M`` behind it (the gate it is in and the one just behind stay free);
+        None when it has driven less."""
+        if len(self._trace) < 2:
+            return None
+        trace = np.asarray(self._trace, np.float64)
+        back = np.concatenate([np.cumsum(np.hypot(*np.diff(trace[::-1], axis=0).T))[::-1],
+                               [0.0]])
+        keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
+        return trace[keep] if np.count_nonzero(keep) >= 2 else None
 
     def _known_frame(self, map_state: MapState) -> bool:
         """The baseframe of a known-path mission from the map as it is now, when the map has
@@ -448,6 +470,9 @@ class PathPlanner:
                                  self._explored_m - self._last_crossing_m)
                 self._last_crossing_m = self._explored_m
         self._last_xy = (x_m, y_m)
+        if not self._trace or math.hypot(x_m - self._trace[-1][0],
+                                         y_m - self._trace[-1][1]) >= TRACE_STEP_M:
+            self._trace.append((x_m, y_m))
 
     def _start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
         """The start line while exploring: a point on it, its unit direction (the car crosses

@@ -140,3 +140,32 @@ def test_a_ring_of_close_cones_keeps_the_path_round_its_middle() -> None:
     radius = np.hypot(*(path[1:] - centre).T)
     assert np.all(np.abs(radius - 3.2) < 0.35), radius
     assert float(np.max(np.hypot(*np.diff(path, axis=0).T))) < 2.5
+
+
+def test_gates_the_car_drove_through_are_never_ahead() -> None:
+    """Without colours, a gap at a hairpin's end can lead the search back up the way in (FSG's
+    bottom hairpin, camera dead): the gates the car's trace crossed are behind it. Here a car
+    turned round in a lane of unknown cones sees the lane it came down as the way ahead, until
+    its trace says it came that way."""
+    ys = np.arange(0.0, 30.01, 3.0)
+    xy = np.r_[np.c_[np.full_like(ys, 1.75), ys], np.c_[np.full_like(ys, -1.75), ys]]
+    col = np.zeros(len(xy), np.int64)
+    car, yaw = np.array([0.0, 1.0]), np.pi / 2.0  # at the lane's south end, facing north
+    came = np.c_[np.zeros(30), np.linspace(30.0, 2.0, 30)]  # drove it southwards
+
+    free, _ = gate_search_path(xy, col, car, yaw, 3.5)
+    assert len(free) >= 4 and free[-1][1] > 20.0  # back up the lane: it looks like track
+    behind, _ = gate_search_path(xy, col, car, yaw, 3.5, driven_xy_m=came)
+    assert behind[-1][1] < 6.0  # no further than the car's own cell: the rest is behind it
+
+
+def test_the_trace_blocks_only_the_edges_it_crossed() -> None:
+    from scipy.spatial import Delaunay
+
+    from planner.gate_search import _edges_crossed
+
+    xy = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
+    tri = Delaunay(xy)
+    crossed = _edges_crossed(xy, tri.simplices, np.array([[2.0, -1.0], [2.0, 1.0]]))
+    assert crossed == {(0, 1)}  # the bottom edge only
+    assert _edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == set()
