@@ -79,9 +79,9 @@ def gate_search_path(
     the car, or with ``behind_m`` > 0 the midpoint of the car's gate when it is at most that far
     behind) and a mask (N,) of the cones ``xy`` (N, 2) of colours ``col`` (N,) that bound it
     (but for its last gate's). ``driven_xy_m`` (M, 2): the way the car came (its last tens of
-    metres, not the last few): an edge it crossed is behind it, never a gate ahead (without
+    metres, not the last few): an edge it crossed is never crossed back the other way (without
     colours, the gap between a hairpin's inner end and the next stretch leads back up the way
-    in).
+    in), while the next lap crosses it again the same way.
     K = 1 when there is no gate ahead."""
     start = np.asarray(start_xy_m, np.float64)
     used = np.zeros(len(xy), bool)
@@ -115,9 +115,10 @@ def gate_search_path(
 
 
 def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
-                   path_xy: FloatArray) -> set[tuple[int, int]]:
+                   path_xy: FloatArray) -> dict[tuple[int, int], float]:
     """The triangulation's edges (index pairs, lower first) that the polyline ``path_xy``
-    (M, 2) crosses."""
+    (M, 2) crosses, each with the side it crossed it towards: the sign of the cross product of
+    the edge (lower index to higher) and the path's step (its last crossing's, if several)."""
     edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]],
                                               simplices[:, [2, 0]]]), axis=1), axis=0)
     p, r = xy[edges[:, 0]][:, None, :], (xy[edges[:, 1]] - xy[edges[:, 0]])[:, None, :]
@@ -131,7 +132,11 @@ def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
         t = cross(q - p, u) / denom  # along the edge
         v = cross(q - p, r) / denom  # along the path's segment
     hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (v >= 0.0) & (v <= 1.0)
-    return {(int(a), int(b)) for a, b in edges[np.any(hit, axis=1)]}
+    out: dict[tuple[int, int], float] = {}
+    for e in np.flatnonzero(np.any(hit, axis=1)):
+        last = int(np.flatnonzero(hit[e])[-1])
+        out[(int(edges[e, 0]), int(edges[e, 1]))] = float(np.sign(denom[e, last]))
+    return out
 
 
 def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
@@ -190,8 +195,9 @@ class _Search:
         self.neighbours: NDArray[np.int32] = tri.neighbors
         self.width_m = track_width_m
         self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
-        self.behind: set[tuple[int, int]] = set()
-        """Edges (lower index first) the car has driven through: never a gate ahead."""
+        self.behind: dict[tuple[int, int], float] = {}
+        """Edges (lower index first) the car has driven through, with the side it crossed
+        them towards (:func:`_edges_crossed`): never a gate back the other way."""
 
     # -- gates ---------------------------------------------------------------------------
     def _gate_cost(self, a: int, b: int, from_xy: FloatArray
@@ -220,6 +226,16 @@ class _Search:
         """The track edge (a, b) leaves across a path heading ``yaw_rad`` through it (m)."""
         gx, gy = self.xy[b] - self.xy[a]
         return abs(math.cos(yaw_rad) * float(gy) - math.sin(yaw_rad) * float(gx))
+
+    def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
+        """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
+        through it (the next lap crosses it the same way: that is no way back)."""
+        lo, hi = min(a, b), max(a, b)
+        side = self.behind.get((lo, hi))
+        if side is None:
+            return False
+        edge = self.xy[hi] - self.xy[lo]
+        return float(edge[0] * step[1] - edge[1] * step[0]) * side < 0.0
 
     def _containing_triangle(self, point: FloatArray) -> int:
         """Index of the triangle that contains ``point`` (2,), -1 for none (the same sign
@@ -306,7 +322,7 @@ class _Search:
         out = []
         for k in range(3):
             a, b = tri[(k + 1) % 3], tri[(k + 2) % 3]
-            if {a, b} == set(p.entry) or (min(a, b), max(a, b)) in self.behind:
+            if {a, b} == set(p.entry):
                 continue
             gate = self._gate_cost(a, b, here)
             if gate is None:
@@ -322,6 +338,8 @@ class _Search:
                 continue
             if self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
                 continue  # crossed so obliquely that it leaves no track width: a boundary
+            if self._back_the_way_in(a, b, step):
+                continue
             nxt = int(self.neighbours[p.triangle][k])
             if nxt in p.triangles:
                 continue

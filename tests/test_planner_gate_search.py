@@ -146,7 +146,8 @@ def test_gates_the_car_drove_through_are_never_ahead() -> None:
     """Without colours, a gap at a hairpin's end can lead the search back up the way in (FSG's
     bottom hairpin, camera dead): the gates the car's trace crossed are behind it. Here a car
     turned round in a lane of unknown cones sees the lane it came down as the way ahead, until
-    its trace says it came that way."""
+    its trace says it came that way; the same gates crossed the same way (a lap later) stay
+    the way ahead."""
     ys = np.arange(0.0, 30.01, 3.0)
     xy = np.r_[np.c_[np.full_like(ys, 1.75), ys], np.c_[np.full_like(ys, -1.75), ys]]
     col = np.zeros(len(xy), np.int64)
@@ -157,6 +158,10 @@ def test_gates_the_car_drove_through_are_never_ahead() -> None:
     assert len(free) >= 4 and free[-1][1] > 20.0  # back up the lane: it looks like track
     behind, _ = gate_search_path(xy, col, car, yaw, 3.5, driven_xy_m=came)
     assert behind[-1][1] < 6.0  # no further than the car's own cell: the rest is behind it
+    # the next lap crosses the same gates the same way: that is the way ahead
+    again, _ = gate_search_path(xy, col, np.array([0.0, 29.0]), -np.pi / 2.0, 3.5,
+                                driven_xy_m=came)
+    assert len(again) >= 4 and again[-1][1] < 10.0
 
 
 def test_the_trace_blocks_only_the_edges_it_crossed() -> None:
@@ -167,5 +172,5 @@ def test_the_trace_blocks_only_the_edges_it_crossed() -> None:
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
     tri = Delaunay(xy)
     crossed = _edges_crossed(xy, tri.simplices, np.array([[2.0, -1.0], [2.0, 1.0]]))
-    assert crossed == {(0, 1)}  # the bottom edge only
-    assert _edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == set()
+    assert crossed == {(0, 1): 1.0}  # the bottom edge only, crossed towards its left
+    assert _edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == {}
