@@ -22,6 +22,7 @@ from common.polyline import polyline_length
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
+from planner.explored_lap import ExploredLap
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.race_job import BackgroundRace, RaceLine, build_race_line
@@ -39,12 +40,6 @@ logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 
-MIN_START_LINE_M = 2.0
-"""Big orange cones spread less than this (m) stand on one side of the track only."""
-TRACE_STEP_M = 0.5
-"""Spacing of the driven trace kept while exploring (m)."""
-DRIVEN_NEAR_M, DRIVEN_BEHIND_M = 3.0, 40.0
-"""The stretch of the driven trace (m behind the car) whose gates are behind it."""
 
 
 def empty_targets() -> TargetStates:
@@ -89,19 +84,8 @@ class PathPlanner:
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._line_offset_m: float | None = None
         """Arc length (m) from the start to the start line on a closed explored track."""
-        self._origin_yaw_rad = 0.0
-        self._start_crossings = 0
-        self._explored_m = 0.0
-        """Distance (m) driven while exploring, from the poses the planner saw."""
-        self._last_crossing_m = 0.0
-        """``_explored_m`` at the last crossing of the start line."""
-        self._last_xy: tuple[float, float] | None = None
-        self._trace: collections.deque[tuple[float, float]] = collections.deque(
-            maxlen=int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2)
-        """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
-        self._point_ahead_m: float | None = None
-        """How far ahead of the car (m) the start line's point was, when the car passes it
-        abreast (the big cones of one side only)."""
+        self._explored: ExploredLap | None = None
+        """The car's progress while it explores (distance, start-line crossings, trace)."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
 
@@ -143,7 +127,7 @@ class PathPlanner:
             pose = map_state.pose
             if math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
                 self._origin_xy = (pose.x_m, pose.y_m)
-                self._origin_yaw_rad = pose.yaw_rad
+                self._explored = ExploredLap(self._origin_xy, pose.yaw_rad, self.config)
                 logger.info("no exploration drive: exploring from the cones as they are mapped")
             self._frame_from_cones(map_state)
         self._reset_progress(map_state)
@@ -288,7 +272,7 @@ class PathPlanner:
                 closed = False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
-            driven = self._driven_behind()
+            driven = self._explored.driven_behind() if self._explored is not None else None
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                    (pose.x_m, pose.y_m), pose.yaw_rad,
                                    track_width_m=c.nominal_track_width_m, behind_m=2.5,
@@ -307,18 +291,6 @@ class PathPlanner:
         if ok and not closed:
             self.book.set_points(pts, closed=False)
         return ok
-
-    def _driven_behind(self) -> FloatArray | None:
-        """The way the car came while exploring (M, 2): from ``DRIVEN_BEHIND_M`` back to
-        ``DRIVEN_NEAR_M`` behind it (the gate it is in and the one just behind stay free);
-        None when it has driven less."""
-        if len(self._trace) < 2:
-            return None
-        trace = np.asarray(self._trace, np.float64)
-        back = np.concatenate([np.cumsum(np.hypot(*np.diff(trace[::-1], axis=0).T))[::-1],
-                               [0.0]])
-        keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
-        return trace[keep] if np.count_nonzero(keep) >= 2 else None
 
     def _known_frame(self, map_state: MapState) -> bool:
         """The baseframe of a known-path mission from the map as it is now, when the map has
@@ -359,7 +331,8 @@ class PathPlanner:
         c = self.config
         if _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
             return "loop_misses_start"
-        if self._explored_m < polyline_length(pts, True) - c.loop_unseen_max_m:
+        explored_m = self._explored.explored_m if self._explored is not None else 0.0
+        if explored_m < polyline_length(pts, True) - c.loop_unseen_max_m:
             return "loop_ahead_unseen"
         if self.mission == "autocross":
             return "loop_in_autocross"
@@ -419,89 +392,6 @@ class PathPlanner:
             if self._origin_xy is not None and self.frame.closed:
                 self._count_from_origin(map_state, s)
 
-    def _explore_progress(self, x_m: float, y_m: float, map_state: MapState) -> None:
-        """Distance driven while exploring, and laps counted where the car crosses the start
-        line while no loop is mapped (with no cone colours the big orange cones and the loop's
-        closure may never come, and the lap is still done).
-
-        The start line is the line through the big orange cones mapped near the start, across
-        the track as they stand (a layout may start the car a quarter of a lap before them, its
-        line not square to the car's start heading), crossed within a metre of their ends; with
-        those of one side only (the other not seen in colour), the car passes abreast of them
-        within a track width; with none, the line across the start heading within a track
-        width of the start. A crossing is a lap only ``lap_min_m`` after the last (or the
-        start): a car that starts behind the line starts the clock there."""
-        assert self._origin_xy is not None
-        point, along_xy, half_m = self._start_line(map_state)
-        here = np.array([x_m, y_m])
-        if self._last_xy is not None:
-            last = np.asarray(self._last_xy)
-            step_m = float(np.hypot(*(here - last)))
-            self._explored_m += step_m
-            crossed, off_m = False, math.inf
-            if along_xy is None:
-                # the car passes abreast of the point: it was ahead and is now beside or behind
-                # (the sign kept from the last call: a plane that turns with the car in a bend
-                # may jump over the car between two calls)
-                if step_m > 1e-6:
-                    forward = (here - last) / step_m
-                    ahead_m = float((point - here) @ forward)
-                    was_m = self._point_ahead_m
-                    crossed = was_m is not None and was_m > 0.0 >= ahead_m
-                    off_m = abs(float((here - point) @ np.array([forward[1], -forward[0]])))
-                    self._point_ahead_m = ahead_m
-            else:
-                self._point_ahead_m = None
-                normal = np.array([-along_xy[1], along_xy[0]])
-                before, after = float((last - point) @ normal), float((here - point) @ normal)
-                if before < 0.0 <= after:
-                    crossed = True
-                    cross = last + (here - last) * (before / (before - after))
-                    off_m = abs(float((cross - point) @ along_xy))
-            if crossed and off_m <= half_m:
-                if self._explored_m - self._last_crossing_m >= self.config.lap_min_m:
-                    self._start_crossings += 1
-                    self.lap = max(self.lap, self._start_crossings)
-                    logger.info("exploring: start line crossed after %.0f m: lap %d",
-                                self._explored_m, self.lap)
-                else:
-                    logger.debug("exploring: start line crossed after %.0f m, %.0f m after the "
-                                 "last: not a lap", self._explored_m,
-                                 self._explored_m - self._last_crossing_m)
-                self._last_crossing_m = self._explored_m
-        self._last_xy = (x_m, y_m)
-        if not self._trace or math.hypot(x_m - self._trace[-1][0],
-                                         y_m - self._trace[-1][1]) >= TRACE_STEP_M:
-            self._trace.append((x_m, y_m))
-
-    def _start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
-        """The start line while exploring: a point on it, its unit direction (the car crosses
-        it towards the left of that direction; None: square to the car's own direction, the
-        big cones of one side only) and the half-length (m) about the point within which a
-        crossing counts."""
-        assert self._origin_xy is not None
-        origin = np.asarray(self._origin_xy, np.float64)
-        heading = np.array([math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)])
-        cones = map_state.cones
-        if len(cones):
-            big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)]
-            big = big[np.hypot(*(big - origin).T) < self.config.start_line_search_m]
-            if len(big):
-                centre = big.mean(axis=0)
-                # the line's direction: the big cones' principal axis when they stand on both
-                # sides (further apart than a track is narrow), else across the start heading
-                _, _, vt = np.linalg.svd(big - centre)
-                along = vt[0]
-                extent = np.abs((big - centre) @ along)
-                if len(big) < 2 or 2.0 * float(extent.max()) < MIN_START_LINE_M:
-                    return centre, None, self.config.nominal_track_width_m
-                forward = np.array([-along[1], along[0]])  # crossed towards its left
-                if float(forward @ (centre - origin)) + float(forward @ heading) < 0.0:
-                    along = -along
-                return centre, along, float(extent.max()) + 1.0
-        along = np.array([heading[1], -heading[0]])
-        return origin, along, self.config.nominal_track_width_m
-
     def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
         """Laps of an explored track count from the start line (the big orange cones nearest
         the start, else the start itself), the explored lap included."""
@@ -519,7 +409,8 @@ class PathPlanner:
         self._progress_m = (s_car_m - s_origin) % length
         # the loop may close only after the car has passed the start again: whole laps from
         # the distance driven while exploring
-        self._progress_m += length * max(round((self._explored_m - self._progress_m) / length), 0)
+        explored_m = self._explored.explored_m if self._explored is not None else 0.0
+        self._progress_m += length * max(round((explored_m - self._progress_m) / length), 0)
         logger.info("laps count from the start line %.1f m past the start; %.1f m driven",
                     self._line_offset_m, self._progress_m)
 
@@ -553,7 +444,9 @@ class PathPlanner:
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
         if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
-            self._explore_progress(pose.x_m, pose.y_m, map_state)
+            if self._explored is not None:
+                self._explored.update(pose.x_m, pose.y_m, map_state)
+                self.lap = max(self.lap, self._explored.laps)
         if self._race_worker is not None and self._race_worker.pending:
             self._take_race_line(map_state)
         if self.known is not None:

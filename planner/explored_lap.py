@@ -1,0 +1,143 @@
+"""The car's progress while it explores a track it has not mapped yet: the distance driven,
+the laps counted where it crosses the start line (while no loop is mapped), and the way it came
+(whose gates the exploration path never takes back the other way).
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from common.messages import ConeColour, MapState
+from planner.config import PlannerConfig
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+MIN_START_LINE_M = 2.0
+"""Big orange cones spread less than this (m) stand on one side of the track only."""
+TRACE_STEP_M = 0.5
+"""Spacing of the driven trace kept while exploring (m)."""
+DRIVEN_NEAR_M, DRIVEN_BEHIND_M = 3.0, 40.0
+"""The stretch of the driven trace (m behind the car) whose gates are behind it."""
+
+
+class ExploredLap:
+    """Progress from the start pose ``origin_xy`` (m) heading ``origin_yaw_rad``, fed the car's
+    position at each plan (:meth:`update`)."""
+
+    def __init__(self, origin_xy: tuple[float, float], origin_yaw_rad: float,
+                 config: PlannerConfig) -> None:
+        self.config = config
+        self._origin_xy = origin_xy
+        self._origin_yaw_rad = origin_yaw_rad
+        self.laps = 0
+        """Laps counted at the start line."""
+        self.explored_m = 0.0
+        """Distance (m) driven while exploring, from the poses the planner saw."""
+        self._last_crossing_m = 0.0
+        """``explored_m`` at the last crossing of the start line."""
+        self._last_xy: tuple[float, float] | None = None
+        self._trace: collections.deque[tuple[float, float]] = collections.deque(
+            maxlen=int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2)
+        """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
+        self._point_ahead_m: float | None = None
+        """How far ahead of the car (m) the start line's point was, when the car passes it
+        abreast (the big cones of one side only)."""
+
+    def update(self, x_m: float, y_m: float, map_state: MapState) -> None:
+        """Distance driven while exploring, and laps counted where the car crosses the start
+        line while no loop is mapped (with no cone colours the big orange cones and the loop's
+        closure may never come, and the lap is still done).
+
+        The start line is the line through the big orange cones mapped near the start, across
+        the track as they stand (a layout may start the car a quarter of a lap before them, its
+        line not square to the car's start heading), crossed within a metre of their ends; with
+        those of one side only (the other not seen in colour), the car passes abreast of them
+        within a track width; with none, the line across the start heading within a track
+        width of the start. A crossing is a lap only ``lap_min_m`` after the last (or the
+        start): a car that starts behind the line starts the clock there."""
+        point, along_xy, half_m = self.start_line(map_state)
+        here = np.array([x_m, y_m])
+        if self._last_xy is not None:
+            last = np.asarray(self._last_xy)
+            step_m = float(np.hypot(*(here - last)))
+            self.explored_m += step_m
+            crossed, off_m = False, math.inf
+            if along_xy is None:
+                # the car passes abreast of the point: it was ahead and is now beside or behind
+                # (the sign kept from the last call: a plane that turns with the car in a bend
+                # may jump over the car between two calls)
+                if step_m > 1e-6:
+                    forward = (here - last) / step_m
+                    ahead_m = float((point - here) @ forward)
+                    was_m = self._point_ahead_m
+                    crossed = was_m is not None and was_m > 0.0 >= ahead_m
+                    off_m = abs(float((here - point) @ np.array([forward[1], -forward[0]])))
+                    self._point_ahead_m = ahead_m
+            else:
+                self._point_ahead_m = None
+                normal = np.array([-along_xy[1], along_xy[0]])
+                before, after = float((last - point) @ normal), float((here - point) @ normal)
+                if before < 0.0 <= after:
+                    crossed = True
+                    cross = last + (here - last) * (before / (before - after))
+                    off_m = abs(float((cross - point) @ along_xy))
+            if crossed and off_m <= half_m:
+                if self.explored_m - self._last_crossing_m >= self.config.lap_min_m:
+                    self.laps += 1
+                    logger.info("exploring: start line crossed after %.0f m: lap %d",
+                                self.explored_m, self.laps)
+                else:
+                    logger.debug("exploring: start line crossed after %.0f m, %.0f m after the "
+                                 "last: not a lap", self.explored_m,
+                                 self.explored_m - self._last_crossing_m)
+                self._last_crossing_m = self.explored_m
+        self._last_xy = (x_m, y_m)
+        if not self._trace or math.hypot(x_m - self._trace[-1][0],
+                                         y_m - self._trace[-1][1]) >= TRACE_STEP_M:
+            self._trace.append((x_m, y_m))
+
+    def start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
+        """The start line while exploring: a point on it, its unit direction (the car crosses
+        it towards the left of that direction; None: square to the car's own direction, the
+        big cones of one side only) and the half-length (m) about the point within which a
+        crossing counts."""
+        origin = np.asarray(self._origin_xy, np.float64)
+        heading = np.array([math.cos(self._origin_yaw_rad), math.sin(self._origin_yaw_rad)])
+        cones = map_state.cones
+        if len(cones):
+            big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)]
+            big = big[np.hypot(*(big - origin).T) < self.config.start_line_search_m]
+            if len(big):
+                centre = big.mean(axis=0)
+                # the line's direction: the big cones' principal axis when they stand on both
+                # sides (further apart than a track is narrow), else across the start heading
+                _, _, vt = np.linalg.svd(big - centre)
+                along = vt[0]
+                extent = np.abs((big - centre) @ along)
+                if len(big) < 2 or 2.0 * float(extent.max()) < MIN_START_LINE_M:
+                    return centre, None, self.config.nominal_track_width_m
+                forward = np.array([-along[1], along[0]])  # crossed towards its left
+                if float(forward @ (centre - origin)) + float(forward @ heading) < 0.0:
+                    along = -along
+                return centre, along, float(extent.max()) + 1.0
+        along = np.array([heading[1], -heading[0]])
+        return origin, along, self.config.nominal_track_width_m
+
+    def driven_behind(self) -> FloatArray | None:
+        """The way the car came while exploring (M, 2): from ``DRIVEN_BEHIND_M`` back to
+        ``DRIVEN_NEAR_M`` behind it (the gate it is in and the one just behind stay free);
+        None when it has driven less."""
+        if len(self._trace) < 2:
+            return None
+        trace = np.asarray(self._trace, np.float64)
+        back = np.concatenate([np.cumsum(np.hypot(*np.diff(trace[::-1], axis=0).T))[::-1],
+                               [0.0]])
+        keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
+        return trace[keep] if np.count_nonzero(keep) >= 2 else None
