@@ -250,12 +250,12 @@ def test_an_autocross_never_closes_its_loop_and_ends_its_lap_at_the_line() -> No
     assert laps[-1] == 1 and laps.count(0) > 150
 
 
-@pytest.mark.parametrize("sides", ["both", "outer"])
-def test_the_lap_ends_at_big_orange_cones_a_quarter_lap_from_the_start(sides: str) -> None:
-    """A layout may place the car a quarter of a lap before its big orange cones (SmallCircle,
-    a community layout), their line not square to the car's start heading, and with only the
-    outer side's seen in colour: the car passes them first as it starts (the lap's clock
-    starts), and the lap ends when it passes them again, not when it passes its own start."""
+def _laps_round_a_ring(radius_m: float, n_cones: int, line_rad: float, big_radii_m: list[float],
+                       big_spread_rad: float, angles: np.ndarray, speed_mps: float) -> list[int]:
+    """An autocross planner's lap count at each plan of a car driven round a ring of blue
+    (inside) and yellow cones 1.5 m either side of a circle of ``radius_m`` that starts at the
+    origin heading +x, at ``angles`` (rad round the ring, one plan each 0.1 s); big orange cones
+    ``line_rad`` round the ring at ``big_radii_m`` from its centre, ``big_spread_rad`` apart."""
     from planner_closed_loop_helpers import cone_map
 
     from common.messages import MapState, PoseEstimate
@@ -264,32 +264,42 @@ def test_the_lap_ends_at_big_orange_cones_a_quarter_lap_from_the_start(sides: st
 
     config = AppConfig()
     planner = PathPlanner(config.planner, config.car, "autocross")
-    radius_m, half_m = 8.0, 1.5
-    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
+    half_m = 1.5
+    a = np.linspace(0.0, 2.0 * math.pi, n_cones, endpoint=False)
     centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
     inward = np.c_[-np.sin(a), np.cos(a)]
     cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
-    quarter = math.pi / 2.0  # the line: a quarter lap on, at (8, 8), radial
-    big = [(r * math.sin(quarter + da), radius_m - r * math.cos(quarter + da))
-           for r in ((radius_m - half_m, radius_m + half_m) if sides == "both"
-                     else (radius_m + half_m,)) for da in (-0.03, 0.03)]
+    colours = np.r_[np.full(n_cones, BLUE), np.full(n_cones, YELLOW)]
+    big = [(r * math.sin(line_rad + da), radius_m - r * math.cos(line_rad + da))
+           for r in big_radii_m for da in (-big_spread_rad / 2.0, big_spread_rad / 2.0)]
     cones = np.r_[cones, np.asarray(big)]
     colours = np.r_[colours, np.full(len(big), int(ConeColour.BIG_ORANGE))]
     everything = cone_map(cones, colours)
 
     def state(t_s: float, angle: float) -> MapState:
         x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, 4.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        pose = PoseEstimate(t_s, x, y, angle, speed_mps, 0.0, 0.0, np.eye(3) * 1e-4)
         return MapState(t_s, pose, everything, loop_closed=False)
 
     planner.start_autonomous(state(0.0, 0.0))
-    angles = np.linspace(0.0, 3.0 * math.pi, 300)
     laps = []
-    for k, angle in enumerate(angles[1:], 1):
+    for k, angle in enumerate(angles, 1):
         planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
         laps.append(planner.lap)
-    first = int(np.argmax(np.asarray(laps) == 1)) + 1
+    return laps
+
+
+@pytest.mark.parametrize("sides", ["both", "outer"])
+def test_the_lap_ends_at_big_orange_cones_a_quarter_lap_from_the_start(sides: str) -> None:
+    """A layout may place the car a quarter of a lap before its big orange cones (SmallCircle,
+    a community layout), their line not square to the car's start heading, and with only the
+    outer side's seen in colour: the car passes them first as it starts (the lap's clock
+    starts), and the lap ends when it passes them again, not when it passes its own start."""
+    quarter = math.pi / 2.0  # the line: a quarter lap on, at (8, 8), radial
+    angles = np.linspace(0.0, 3.0 * math.pi, 300)[1:]
+    laps = _laps_round_a_ring(8.0, 40, quarter, [6.5, 9.5] if sides == "both" else [9.5],
+                              0.06, angles, 4.0)
+    first = int(np.argmax(np.asarray(laps) == 1))
     assert laps[-1] == 1
     assert abs(angles[first] - (quarter + 2.0 * math.pi)) < 0.1
 
@@ -300,38 +310,9 @@ def test_a_lap_round_a_tight_circle_ends_abreast_of_one_sides_big_cones(phase: f
     car turns 0.12 rad between plans; with big orange cones seen on the outer side only, the
     lap ends where the car passes them abreast, whichever moment of a plan that falls on (a
     line square to the car's own step turns with it and could jump over the car)."""
-    from planner_closed_loop_helpers import cone_map
-
-    from common.messages import MapState, PoseEstimate
-    from orchestrator.config import AppConfig
-    from planner.path_planner import PathPlanner
-
-    config = AppConfig()
-    planner = PathPlanner(config.planner, config.car, "autocross")
-    radius_m, half_m, step_rad = 3.0, 1.5, 0.12
-    a = np.linspace(0.0, 2.0 * math.pi, 24, endpoint=False)
-    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
-    inward = np.c_[-np.sin(a), np.cos(a)]
-    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(24, BLUE), np.full(24, YELLOW)]
-    line = 1.9  # rad round the circle from the start
-    big = [((radius_m + half_m) * math.sin(line + da),
-            radius_m - (radius_m + half_m) * math.cos(line + da)) for da in (-0.05, 0.05)]
-    cones = np.r_[cones, np.asarray(big)]
-    colours = np.r_[colours, np.full(len(big), int(ConeColour.BIG_ORANGE))]
-    everything = cone_map(cones, colours)
-
-    def state(t_s: float, angle: float) -> MapState:
-        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, 3.5, 0.0, 0.0, np.eye(3) * 1e-4)
-        return MapState(t_s, pose, everything, loop_closed=False)
-
-    planner.start_autonomous(state(0.0, 0.0))
+    step_rad, line = 0.12, 1.9  # the line: 1.9 rad round the circle from the start
     angles = np.arange(phase * step_rad, 3.5 * math.pi, step_rad)
-    laps = []
-    for k, angle in enumerate(angles, 1):
-        planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
-        laps.append(planner.lap)
+    laps = _laps_round_a_ring(3.0, 24, line, [4.5], 0.1, angles, 3.5)
     first = int(np.argmax(np.asarray(laps) == 1))
     assert laps[-1] == 1
     # counted at the first plan past the point, judged along the last step (half a step behind)
