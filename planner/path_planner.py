@@ -230,22 +230,39 @@ class PathPlanner:
             logger.warning("racing line's baseframe failed (%s): the centre line stays", exc)
             return
         old, lap = self.frame, self.lap
-        laps_done = None  # laps past the start line, with the fraction of the lap (old frame)
-        if old is not None and old.closed and self._line_offset_m is not None:
-            laps_done = (self._progress_m - self._line_offset_m) / old.length_m
+        laps_done = self._laps_done()  # laps past the start, with the fraction (old frame)
         self.frame = frame
         self._frame_msg = frame.to_message()
         self._speed_mps = self._profile(frame)
         self._reset_progress(map_state)
-        if laps_done is not None and self._line_offset_m is not None:
+        if old is not None and old.closed and laps_done is not None:
+            # the same place in the lap on the new frame, the nearest whole number of laps
+            # to the old count (its start may lie a little before or after the old one's)
             length = frame.length_m
-            fraction = ((self._progress_m - self._line_offset_m) / length) % 1.0
-            laps_new = round(laps_done - fraction) + fraction
-            self._progress_m = self._line_offset_m + laps_new * length
-        else:  # laps counted where the frame begins: the laps done carry on from there
-            self._progress_m += lap * frame.length_m
+            if self._line_offset_m is not None:
+                fraction = ((self._progress_m - self._line_offset_m) / length) % 1.0
+                self._progress_m = self._line_offset_m + (round(laps_done - fraction)
+                                                          + fraction) * length
+            elif self._s_hint is not None:
+                fraction = (self._s_hint % length) / length
+                self._s_start = 0.0
+                self._progress_m = (round(laps_done - fraction) + fraction) * length
         self.lap = max(lap, self.lap)
         logger.info("racing line swapped in: %.1f m, lap %d", frame.length_m, self.lap)
+
+    def _laps_done(self) -> float | None:
+        """Laps done on the closed frame, with the fraction of the lap the car is in (None
+        before progress is counted): what :meth:`_update_lap` floors."""
+        frame = self.frame
+        if frame is None or not frame.closed or self._s_start is None:
+            return None
+        length = frame.length_m
+        if self._line_offset_m is not None:
+            return (self._progress_m - self._line_offset_m) / length
+        done = (self._s_start + self._progress_m) / length
+        if length - self._s_start < self.config.lap_min_fraction * length:
+            done -= 1.0  # started just before the line: its first crossing is no lap
+        return done
 
     def close(self) -> None:
         """Stop the racing line's background process, if any."""

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
-from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -61,23 +61,22 @@ class BackgroundRace:
     """One worker process that builds racing lines (:func:`build_race_line`) while the caller
     goes on; one job at a time (a new one replaces the one waiting, whose result is dropped).
 
-    The process is started at once (``spawn``: the caller may run threads, which ``fork`` does
-    not copy safely) and warmed with the imports, so the first line is not a start-up late."""
+    The process starts with the first job (``spawn``: the caller may run threads, which
+    ``fork`` does not copy safely), so a run that never closes its loop starts none, and
+    :meth:`close` terminates it at once (a shutdown never waits for a line)."""
 
     def __init__(self) -> None:
-        context = multiprocessing.get_context("spawn")
-        self._pool = ProcessPoolExecutor(max_workers=1, mp_context=context)
-        self._pool.submit(_warm)
-        self._job: Future[RaceLine] | None = None
+        self._pool: Any = None
+        self._job: Any = None
 
     def submit(self, cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy_m: FloatArray,
                config: PlannerConfig, car: CarConfig, limits: SpeedLimits) -> None:
         """Start building a racing line (the arrays are copied to the worker)."""
-        if self._job is not None:
-            self._job.cancel()
-        self._job = self._pool.submit(build_race_line, np.array(cones_xy_m),
-                                      np.array(colours), np.array(guide_xy_m), config, car,
-                                      limits)
+        if self._pool is None:
+            self._pool = multiprocessing.get_context("spawn").Pool(processes=1)
+        self._job = self._pool.apply_async(
+            build_race_line, (np.array(cones_xy_m), np.array(colours), np.array(guide_xy_m),
+                              config, car, limits))
 
     @property
     def pending(self) -> bool:
@@ -88,21 +87,19 @@ class BackgroundRace:
         """The finished line, or the error that ended its building; None while it is being
         built (or none was asked for)."""
         job = self._job
-        if job is None or not job.done():
+        if job is None or not job.ready():
             return None
         self._job = None
-        if job.cancelled():
-            return None
-        error = job.exception()
-        return error if error is not None else job.result()
+        try:
+            result: RaceLine = job.get()
+        except Exception as exc:  # the worker's error, re-raised here: the caller logs it
+            return exc
+        return result
 
     def close(self) -> None:
-        """Stop the worker (a line being built is dropped)."""
-        if self._job is not None:
-            self._job.cancel()
-            self._job = None
-        self._pool.shutdown(wait=False, cancel_futures=True)
-
-
-def _warm() -> bool:
-    return True
+        """Stop the worker at once (a line being built is dropped)."""
+        self._job = None
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None

@@ -7,6 +7,7 @@ import math
 import time
 
 import numpy as np
+import pytest
 from planner_closed_loop_helpers import cone_map
 
 from common.messages import MapState, PoseEstimate
@@ -72,3 +73,55 @@ def test_the_racing_line_is_swapped_in_when_built_and_the_laps_carry_on() -> Non
         assert abs(first_lap - n) < 0.1 * n
     finally:
         planner.close()
+
+
+class _ReadyAt:
+    """A stand-in for the background worker (a unit test's mock): the line is done at the
+    ``at``-th poll, so the swap falls at a chosen place in the lap."""
+
+    def __init__(self, line: object, at: int) -> None:
+        self.line, self.at, self.polls = line, at, 0
+
+    @property
+    def pending(self) -> bool:
+        return self.line is not None
+
+    def poll(self) -> object:
+        self.polls += 1
+        if self.polls < self.at:
+            return None
+        line, self.line = self.line, None
+        return line
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("where", [0.3, 0.98, 1.02])
+def test_a_lap_is_counted_once_wherever_the_swap_falls(where: float) -> None:
+    """The racing line's start may lie a little before or after the centre line's: a swap just
+    before or just after the start neither loses the lap nor counts it twice."""
+    from planner.race_job import build_race_line
+
+    planner, track = _planner(background=False)
+    planner.start_autonomous(_state(track, 0.0, 0))
+    guide = planner.frame
+    assert guide is not None
+    n = len(track.centreline_xy_m)
+    planner2, _ = _planner(background=False)
+    planner2.config.racing_line = False  # the centre line first, as drive drives it
+    planner2.start_autonomous(_state(track, 0.0, 0))
+    planner2.config.racing_line = True
+    cones = cone_map(track.cones_xy_m, track.colours)  # type: ignore[attr-defined]
+    line = build_race_line(cones.xy_m, cones.colour, guide.xy_m, planner2.config, planner2.car,
+                           planner2.limits)
+    planner2._race_worker = _ReadyAt(line, int(where * n))  # type: ignore[assignment]
+    centre_line = planner2.frame
+    laps = []
+    for k in range(1, int(1.6 * n)):
+        planner2.plan(_state(track, 0.1 * k, k), 0.1 * k)
+        laps.append(planner2.lap)
+    assert planner2.frame is not centre_line  # swapped
+    assert laps[-1] == 1 and np.count_nonzero(np.diff(laps)) == 1
+    first_lap = int(np.argmax(np.asarray(laps) == 1)) + 1
+    assert abs(first_lap - n) < 0.1 * n
