@@ -139,6 +139,9 @@ class PlannerConfig:
     (the rest corrects the car)."""
     understeer_rad_per_mps2: float = 0.004
     """The car's understeer (extra steering per lateral acceleration) for that limit."""
+    steer_lock_fraction: float = 0.95
+    """Fraction of the car's steering lock the profile lets a bend and the understeer use (the
+    rest corrects the car); a bend tighter than that is driven at ``crawl_speed_mps``."""
     max_speed_mps: float = 18.0
     two_level_fast_mps: float = 8.0
     two_level_slow_mps: float = 4.0

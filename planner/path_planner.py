@@ -30,6 +30,7 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
+    steering_lock_cap,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
@@ -275,11 +276,15 @@ class PathPlanner:
         pose = map_state.pose
         if not all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad)):
             return False
+        min_loop_m = c.min_loop_length_m
+        if self._explored is not None and self._explored.laps >= 1:
+            # a lap counted at the start line: the loop may be as short as a lap may be
+            min_loop_m = min(min_loop_m, c.lap_min_m)
         pts, closed = waypoints_from_cones(
             map_state.cones.xy_m, map_state.cones.colour, (pose.x_m, pose.y_m), pose.yaw_rad,
             min_pair_m=c.min_cone_pair_distance_m, max_pair_m=c.max_cone_pair_distance_m,
             track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
-            max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=c.min_loop_length_m,
+            max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=min_loop_m,
         )
         if closed and self._origin_xy is not None:
             refusal = self._loop_refusal(pts)
@@ -373,6 +378,9 @@ class PathPlanner:
             kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
+        extra = np.minimum(extra, steering_lock_cap(
+            self.car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
+            c.crawl_speed_mps)(kappa))
         if c.speed_mode == "two_level":
             extra = np.minimum(extra, two_level_speed_mps(
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,

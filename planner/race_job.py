@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from common.car import CarConfig
 from planner.config import PlannerConfig
 from planner.racing_line import racing_line
-from planner.speed_profile import SpeedLimits
+from planner.speed_profile import SpeedLimits, steering_lock_cap
 from planner.track_model import TrackModel, track_from_cones
 
 logger = logging.getLogger(__name__)
@@ -51,7 +51,10 @@ def build_race_line(cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy
     if c.racing_line:
         line, _ = racing_line(model, half_width_m=car.width_m / 2.0,
                               front_m=car.length_m - car.rear_overhang_m,
-                              clearance_m=c.cone_radius_m + c.racing_margin_m, limits=limits)
+                              clearance_m=c.cone_radius_m + c.racing_margin_m, limits=limits,
+                              speed_cap=steering_lock_cap(car, c.steer_lock_fraction,
+                                                          c.understeer_rad_per_mps2,
+                                                          c.crawl_speed_mps))
     else:
         line = model.centre_xy_m
     return RaceLine(np.asarray(line, np.float64), model)

@@ -15,6 +15,7 @@ corner swings out beyond it on a bend of the centreline's radius.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,6 +29,13 @@ from planner.track_model import TrackModel, menger_curvature
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
+SpeedCap = Callable[[FloatArray], FloatArray]
+"""A speed limit (m/s) from a line's curvature (1/m), per sample."""
+
+PINCH_BAND_M = 0.1
+"""Where the track is narrower than the car and its margins, the line may lie anywhere with
+room within this of the most (a line pinned to the most room follows every wobble of the
+boundaries)."""
 
 LENGTH_WEIGHTS = (0.0, 1.0, 2.0, 4.0, 8.0, 16.0)
 """Weights of the path length against the curvature tried for the racing line."""
@@ -151,14 +159,18 @@ def min_curvature_offsets(
     return np.clip(np.asarray(result.x, np.float64), lo, hi)
 
 
-def line_lap_time_s(line_xy_m: FloatArray, closed: bool, limits: SpeedLimits) -> float:
+def line_lap_time_s(line_xy_m: FloatArray, closed: bool, limits: SpeedLimits,
+                    speed_cap: SpeedCap | None = None) -> float:
     """Time (s) a point mass with ``limits`` needs along ``line_xy_m`` (N, 2) (a flying lap
-    when closed, from and to standstill when open)."""
+    when closed, from and to standstill when open); ``speed_cap`` gives a further limit (m/s)
+    from the line's curvature (1/m), such as the steering lock's."""
     frame = SplineBaseframe(line_xy_m, closed, resample_m=1.0, smoothing_m=1.0, step_m=0.5)
     ds = np.full(len(frame.s_m) if closed else len(frame.s_m) - 1, frame.step_m)
-    v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed,
+    kappa = frame.curvature_1pm
+    v = forward_backward_speed_mps(kappa, ds, limits, closed,
                                    v_start_mps=None if closed else 0.0,
-                                   v_end_mps=None if closed else 0.0)
+                                   v_end_mps=None if closed else 0.0,
+                                   v_limit_mps=None if speed_cap is None else speed_cap(kappa))
     return lap_time_s(v, ds, closed)
 
 
@@ -169,6 +181,7 @@ def racing_line(
     front_m: float,
     clearance_m: float,
     limits: SpeedLimits,
+    speed_cap: SpeedCap | None = None,
     length_weights: tuple[float, ...] = LENGTH_WEIGHTS,
 ) -> tuple[FloatArray, FloatArray]:
     """The racing line (N, 2) inside ``track`` and its offsets from the centreline (N,).
@@ -177,12 +190,14 @@ def racing_line(
     keeping ``clearance_m`` (cone radius plus margin) from the boundaries. Lines of least
     curvature with each of ``length_weights`` are timed with ``limits`` (a point mass); the
     fastest is the racing line (least curvature alone is slow where the track is one long bend:
-    the outside is longer)."""
+    the outside is longer), with ``speed_cap`` (m/s from the curvature, e.g. the steering
+    lock's: a tight inside line the car cannot steer is not fast)."""
     normals = track.normals
     kappa = track.curvature_1pm
     left_margin, right_margin = body_margins_m(kappa, half_width_m, front_m, clearance_m)
-    lower, upper = track.free_interval(left_margin, right_margin)
-    narrow = int(np.sum(upper - lower < 1e-9))
+    lower, upper, pinched = track.free_interval_pinched(left_margin, right_margin,
+                                                        pinch_band_m=PINCH_BAND_M)
+    narrow = int(np.sum(pinched))
     if narrow:
         logger.info("racing line: %d of %d samples narrower than the car and margins",
                     narrow, len(track))
@@ -193,7 +208,7 @@ def racing_line(
         line = track.centre_xy_m + alpha[:, None] * normals
         if not np.all(np.isfinite(line)):
             continue
-        t = line_lap_time_s(line, track.closed, limits)
+        t = line_lap_time_s(line, track.closed, limits, speed_cap)
         logger.debug("racing line: length weight %.2f: %.3f s", weight, t)
         if best is None or t < best[0]:
             best = (t, alpha, weight)
@@ -204,7 +219,7 @@ def racing_line(
     line = track.centre_xy_m + alpha[:, None] * normals
     logger.info("racing line: %.2f s (centreline %.2f s), length weight %.2f, max |kappa| "
                 "%.3f -> %.3f 1/m", t_best, line_lap_time_s(track.centre_xy_m, track.closed,
-                                                              limits),
+                                                              limits, speed_cap),
                 weight, float(np.max(np.abs(kappa))),
                 float(np.max(np.abs(menger_curvature(line, track.closed)))))
     return line, alpha

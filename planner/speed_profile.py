@@ -9,7 +9,9 @@ the slowest point of the curvature limit, where the speed of the lap is known.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +45,35 @@ class SpeedLimits:
             brake_mps2=car.max_brake_decel_mps2 * safety_factor,
             top_speed_mps=min(car.top_speed_mps, max_speed_mps),
         )
+
+
+def steering_angle_speed_limit_mps(
+    kappa_1pm: ArrayLike,
+    wheelbase_m: float,
+    max_steer_rad: float,
+    understeer_rad_per_mps2: float,
+    floor_mps: float,
+) -> FloatArray:
+    """Highest speed (M,) (m/s) at which the steering lock can hold the curvature (1/m): the
+    steering needed is atan(L |kappa|) + K v^2 |kappa|, within ``max_steer_rad``. A bend
+    tighter than the lock holds at any speed gets ``floor_mps`` (the car creeps round it on
+    its feedback)."""
+    k = np.abs(np.asarray(kappa_1pm, np.float64))
+    spare = max_steer_rad - np.arctan(wheelbase_m * k)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.sqrt(np.maximum(spare, 0.0) / np.maximum(understeer_rad_per_mps2 * k, 1e-12))
+    return np.where(spare > 0.0, np.maximum(v, floor_mps), floor_mps)
+
+
+def steering_lock_cap(
+    car: CarConfig, lock_fraction: float, understeer_rad_per_mps2: float, floor_mps: float
+) -> Callable[[FloatArray], FloatArray]:
+    """:func:`steering_angle_speed_limit_mps` for ``car`` with ``lock_fraction`` of its lock
+    (the rest corrects the car), as a function of the curvature (1/m)."""
+    return functools.partial(steering_angle_speed_limit_mps, wheelbase_m=car.wheelbase_m,
+                             max_steer_rad=lock_fraction * car.max_steer_rad,
+                             understeer_rad_per_mps2=understeer_rad_per_mps2,
+                             floor_mps=floor_mps)
 
 
 def curvature_speed_limit_mps(kappa_1pm: ArrayLike, limits: SpeedLimits) -> FloatArray:

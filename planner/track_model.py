@@ -75,11 +75,20 @@ class TrackModel:
         return float(np.min(self.left_width_m + self.right_width_m))
 
     def free_interval(
-        self, left_margin_m: ArrayLike, right_margin_m: ArrayLike
+        self, left_margin_m: ArrayLike, right_margin_m: ArrayLike, pinch_band_m: float = 0.0
     ) -> tuple[FloatArray, FloatArray]:
         """Offsets (N,) (m, along :attr:`normals`) between which a point keeps at least
         ``left_margin_m`` (N,) from the left boundary and ``right_margin_m`` (N,) from the
-        right one. Where no offset does, both ends are the offset with the most room."""
+        right one. Where no offset does, the offsets whose room (the lesser excess over the
+        two margins) is within ``pinch_band_m`` of the most room (with 0, the one offset with
+        the most room: on the offset grid, a line pinned there zigzags by a grid step)."""
+        lo, hi, _ = self.free_interval_pinched(left_margin_m, right_margin_m, pinch_band_m)
+        return lo, hi
+
+    def free_interval_pinched(
+        self, left_margin_m: ArrayLike, right_margin_m: ArrayLike, pinch_band_m: float = 0.0
+    ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+        """:meth:`free_interval` and where (N,) no offset keeps both margins."""
         lm = np.broadcast_to(np.asarray(left_margin_m, np.float64), (len(self),))
         rm = np.broadcast_to(np.asarray(right_margin_m, np.float64), (len(self),))
         offsets, inside, to_left, to_right = _room(self.centre_xy_m, self.normals,
@@ -97,9 +106,14 @@ class TrackModel:
         if none.any():
             slack = np.where(own, np.minimum(to_left - lm[:, None], to_right - rm[:, None]),
                              -np.inf)
-            best = offsets[np.argmax(slack[none], axis=1)]
-            lo[none] = hi[none] = best
-        return np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+            best_idx = np.argmax(slack[none], axis=1)
+            lo[none] = hi[none] = offsets[best_idx]
+            if pinch_band_m > 0.0:
+                rows = slack[none]
+                near = rows >= rows[np.arange(len(rows)), best_idx][:, None] - pinch_band_m
+                band_lo, band_hi = _run_through(near, best_idx)
+                lo[none], hi[none] = offsets[band_lo], offsets[band_hi]
+        return np.asarray(lo, np.float64), np.asarray(hi, np.float64), np.asarray(none, bool)
 
 
 def _normals(xy: FloatArray, closed: bool) -> FloatArray:
@@ -180,17 +194,26 @@ def _run_nearest_zero(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Per row of ``ok`` (N, K): the first and last index of the run of True that holds the
     True offset nearest zero (a row with no True gives the index of offset zero twice)."""
+    centre = np.where(ok, np.abs(offsets)[None, :], np.inf).argmin(axis=1)
+    lo, hi = _run_through(ok, centre)
+    zero = int(np.argmin(np.abs(offsets)))
+    empty = ~ok.any(axis=1)
+    lo[empty] = hi[empty] = zero
+    return lo, hi
+
+
+def _run_through(
+    ok: NDArray[np.bool_], centre: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Per row of ``ok`` (N, K): the first and last index of the run of True through the
+    index ``centre`` (N,) (True there)."""
     n, k = ok.shape
     idx = np.arange(k)
-    centre = np.where(ok, np.abs(offsets)[None, :], np.inf).argmin(axis=1)
     last_false = np.maximum.accumulate(np.where(~ok, idx[None, :], -1), axis=1)
     next_false = np.minimum.accumulate(np.where(~ok, idx[None, :], k)[:, ::-1], axis=1)[:, ::-1]
     rows = np.arange(n)
     lo = last_false[rows, centre] + 1
     hi = next_false[rows, centre] - 1
-    zero = int(np.argmin(np.abs(offsets)))
-    empty = ~ok.any(axis=1)
-    lo[empty] = hi[empty] = zero
     return lo.astype(np.int64), hi.astype(np.int64)
 
 

@@ -215,6 +215,45 @@ def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> No
     assert planner.lap == 2
 
 
+def test_a_loop_shorter_than_the_shortest_mapped_loop_closes_after_its_first_lap() -> None:
+    """A loop mapped in the cones closes only when it is ``min_loop_length_m`` (30 m) long, so
+    that a cluster of cones is not taken for the track; a 20 m circle (SmallCircle, a
+    community layout) would never close, and the car explored lap after lap on the gates.
+    Once a lap is counted at the start line, a loop as short as a lap may be (``lap_min_m``)
+    closes."""
+    from planner_closed_loop_helpers import cone_map
+
+    from common.messages import MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    planner = PathPlanner(config.planner, config.car, "trackdrive")
+    radius_m, half_m, n = 3.2, 1.5, 20
+    assert 2.0 * math.pi * radius_m < config.planner.min_loop_length_m
+    a = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
+    inward = np.c_[-np.sin(a), np.cos(a)]
+    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
+    colours = np.r_[np.full(n, BLUE), np.full(n, YELLOW)]
+    everything = cone_map(cones, colours)
+
+    def state(t_s: float, angle: float) -> MapState:
+        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
+        pose = PoseEstimate(t_s, x, y, angle, 3.0, 0.0, 0.0, np.eye(3) * 1e-4)
+        return MapState(t_s, pose, everything, loop_closed=False)
+
+    planner.start_autonomous(state(0.0, 0.0))
+    exploring = []
+    for k, angle in enumerate(np.linspace(0.0, 2.5 * math.pi, 120)[1:], 1):
+        planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
+        exploring.append((float(angle), planner.exploring))
+    assert all(still for angle, still in exploring if angle < 1.9 * math.pi)
+    assert not exploring[-1][1]
+    assert planner.frame is not None and planner.frame.closed
+    assert planner.lap == 1
+
+
 def test_an_autocross_never_closes_its_loop_and_ends_its_lap_at_the_line() -> None:
     """Autocross is one lap: a loop found in the cones is not raced (building its racing line
     takes the planner a second that drive's plans have not got), the car explores on and the

@@ -13,6 +13,7 @@ from planner.speed_profile import (
     forward_backward_speed_mps,
     lap_time_s,
     min_lap_time_s,
+    steering_angle_speed_limit_mps,
     two_level_speed_mps,
 )
 
@@ -75,3 +76,17 @@ def test_min_lap_time_on_a_circle() -> None:
 def test_lap_time_of_constant_speed() -> None:
     assert lap_time_s(np.full(10, 5.0), np.full(10, 1.0)) == pytest.approx(2.0)
 
+
+
+def test_the_steering_lock_limits_the_speed_on_a_tight_bend() -> None:
+    """The steering needed is atan(L kappa) + K v^2 kappa: at the limit speed it is the lock;
+    a bend tighter than the lock holds at any speed gets the floor, a straight no limit."""
+    wheelbase, lock, k_us = 1.53, 0.5, 0.004
+    kappa = np.array([0.0, 0.1, 0.2, 0.3, 0.5])
+    v = steering_angle_speed_limit_mps(kappa, wheelbase, lock, k_us, floor_mps=2.0)
+    assert v[0] > 100.0
+    for i in (1, 2, 3):
+        steer = math.atan(wheelbase * kappa[i]) + k_us * v[i] ** 2 * kappa[i]
+        assert steer == pytest.approx(lock, rel=1e-9)
+    assert v[1] > v[2] > v[3] > 2.0
+    assert math.atan(wheelbase * 0.5) > lock and v[4] == 2.0

@@ -11,7 +11,7 @@ from common.car import CarConfig
 from common.errors import TrackError
 from common.messages import ConeColour
 from planner.racing_line import body_margins_m, line_lap_time_s, racing_line
-from planner.speed_profile import SpeedLimits, steering_rate_speed_limit_mps
+from planner.speed_profile import SpeedLimits, steering_lock_cap, steering_rate_speed_limit_mps
 from planner.track_model import menger_curvature, self_intersects, track_from_cones
 from simulator.tracks import load_track
 
@@ -108,6 +108,46 @@ def test_racing_line_stays_in_its_bounds_and_is_faster_than_the_centreline(name:
     assert t_line < t_centre
     # the chicane is straightened: the line bends less than the centreline does
     assert np.max(np.abs(menger_curvature(line, True))) < np.max(np.abs(model.curvature_1pm))
+
+
+def _tight_circle():
+    """SmallCircle's size (a community layout): cones 1.5 m either side of a 3.2 m circle,
+    0.7 m apart; the car's body and margins (1.25 m inside, 1.85 m outside) need 3.1 m."""
+    car = CarConfig()
+    model = track_from_cones(*_circle_track(3.2, 1.5, 0.7), True)
+    front = car.length_m - car.rear_overhang_m
+    return car, model, front
+
+
+def test_where_the_track_is_too_narrow_the_line_may_use_a_band_about_the_most_room() -> None:
+    """Pinned to the offset with the most room, a line follows every wobble of the boundaries
+    by a grid step; with a band it may lie anywhere within 0.1 m of room of the most, an
+    interval 0.2 m wide (the room falls 1 m per metre either side of the best)."""
+    car, model, front = _tight_circle()
+    left, right = body_margins_m(model.curvature_1pm, car.width_m / 2, front, 0.55)
+    lo, hi, pinched = model.free_interval_pinched(left, right)
+    assert pinched.all() and np.allclose(lo, hi)
+    lo_b, hi_b, _ = model.free_interval_pinched(left, right, pinch_band_m=0.1)
+    assert np.allclose(hi_b - lo_b, 0.2, atol=0.051)
+    assert np.all((lo_b <= lo + 1e-9) & (lo <= hi_b + 1e-9))
+
+
+def test_the_racing_line_round_a_tight_circle_stays_within_the_steering_lock() -> None:
+    """Round a circle a point mass is fastest on the inside (a lap takes 2 pi sqrt(R / a)),
+    and the line of a planner that knows only friction takes it, at 2.8 m, a curvature the
+    car's steering cannot hold (L 1.53 m, lock 0.52 rad: 95 % of it holds 0.352 1/m). With the
+    lock's speed limit the line keeps to the outside of the band, within the lock."""
+    car, model, front = _tight_circle()
+    limits = SpeedLimits.from_car(car, 0.7, 25.0, lateral_factor=0.6)
+    lock_kappa = math.tan(0.95 * car.max_steer_rad) / car.wheelbase_m
+    kwargs = dict(half_width_m=car.width_m / 2, front_m=front, clearance_m=0.55, limits=limits)
+    inside, _ = racing_line(model, **kwargs)
+    assert np.max(np.abs(menger_curvature(inside, True))) > lock_kappa
+    cap = steering_lock_cap(car, 0.95, 0.004, 2.0)
+    line, _ = racing_line(model, **kwargs, speed_cap=cap)
+    assert np.max(np.abs(menger_curvature(line, True))) <= lock_kappa
+    assert np.min(np.hypot(*line.T)) > np.max(np.hypot(*inside.T))
+    assert line_lap_time_s(line, True, limits, cap) < line_lap_time_s(inside, True, limits, cap)
 
 
 def test_self_intersection_tells_a_figure_of_eight_from_a_loop() -> None:
