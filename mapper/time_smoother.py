@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 
 from common.conventions import world_to_vehicle
 from common.messages import ConeColour, ConeMap, ConeSize
+from mapper.colour_votes import voted_colours
 from mapper.config import SmootherConfig
 
 log = logging.getLogger(__name__)
@@ -227,11 +228,9 @@ class TimeSmoother:
         return self.match_count >= self.config.publish_min_matches
 
     def colours(self) -> NDArray[np.int64]:
-        """(n,) the colour with the most votes (UNKNOWN without votes)."""
-        if len(self) == 0:
-            return np.zeros(0, np.int64)
-        best = np.argmax(self.colour_votes, axis=1)
-        return np.where(self.colour_votes.max(axis=1) > 0.0, best, int(ConeColour.UNKNOWN))
+        """(n,) each object's colour by vote (:func:`mapper.colour_votes.voted_colours`:
+        UNKNOWN until a colour leads by a full vote)."""
+        return voted_colours(self.colour_votes)
 
     def confirmed_map(self, min_matches: int, sigma_floor_m: float = 0.05) -> ConeMap:
         """The objects matched at least ``min_matches`` times as a :class:`ConeMap`."""

@@ -189,6 +189,9 @@ def test_colour_votes_and_sizes_make_the_cone_map() -> None:
               ConeDetection(0.0, 5.0, -2.1, ConeColour.YELLOW, confidence=0.9),
               ConeDetection(0.0, 20.0, 0.0, ConeColour.ORANGE, confidence=0.9)]
     assert slam.add_colour_votes(camera) == 2
+    # one vote of 0.9 is no lead of a full vote: the colours are not known yet
+    assert slam.cone_map().colour.tolist() == [ConeColour.UNKNOWN, ConeColour.UNKNOWN]
+    assert slam.add_colour_votes(camera) == 2
     slam.add_colour_votes([ConeDetection(0.0, 5.0, 2.0, ConeColour.YELLOW, confidence=0.5)])
     cones = slam.cone_map()
     assert cones.colour.tolist() == [ConeColour.BLUE, ConeColour.YELLOW]

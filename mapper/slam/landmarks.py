@@ -2,7 +2,7 @@
 last seen (as travel along the odometer, m) and the votes for its colour and size class.
 
 One row per landmark, in the order of the landmarks in the filter's state. Colour and size
-are majority votes: each associated LiDAR detection votes for its size (and colour, if it has
+are votes: each associated LiDAR detection votes for its size (and colour, if it has
 one), each camera cone for the colour of the nearest landmark (weighted by its confidence).
 """
 
@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from common.messages import ConeColour, ConeDetection, ConeSize
+from mapper.colour_votes import voted_colours
 from mapper.slam.models import FloatArray
 
 N_COLOURS = len(ConeColour)
@@ -77,11 +78,9 @@ class LandmarkBook:
         self.colour_votes[lm, colours] += 1.0
 
     def colours(self) -> NDArray[np.int64]:
-        """Each landmark's colour by majority (UNKNOWN without a vote for a colour)."""
-        votes = self.colour_votes[:, 1:]
-        out = np.argmax(votes, axis=1) + 1
-        out[np.max(votes, axis=1) <= 0.0] = int(ConeColour.UNKNOWN)
-        return out.astype(np.int64)
+        """Each landmark's colour by vote (:func:`mapper.colour_votes.voted_colours`: UNKNOWN
+        until a colour leads by a full vote)."""
+        return voted_colours(self.colour_votes)
 
     def sizes(self) -> NDArray[np.int64]:
         """Each landmark's size class by majority (UNKNOWN without a vote for a size)."""
