@@ -164,11 +164,13 @@ def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
     assert summary["off_track"] == 0
 
 
-def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> None:
-    """While no loop is mapped (the far side mapped late, or no colours: no big orange cones)
-    the lap ends where the car crosses its start line again; when the loop then closes, the
-    lap driven still counts, once, and the next crossing is lap 2 (a one-lap autocross on
-    QR_Nov_2022 drove two, and with the camera dead small_track was never finished)."""
+def _ring(mission: str, radius_m: float, half_m: float, n_cones: int, speed_mps: float,
+          extra_xy: np.ndarray | None = None, extra_colours: np.ndarray | None = None):
+    """A planner for ``mission`` and a ring of blue (inside) and yellow cones ``half_m`` either
+    side of a circle of ``radius_m`` that starts at the origin heading +x (plus ``extra_xy``
+    of ``extra_colours``): the planner, the cones, their colours and ``state(t_s, angle,
+    seen=None)``, the map state of a car ``angle`` (rad) round the ring at ``speed_mps`` that
+    has mapped the cones ``seen`` (a mask; all when None)."""
     from planner_closed_loop_helpers import cone_map
 
     from common.messages import MapState, PoseEstimate
@@ -176,18 +178,32 @@ def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> No
     from planner.path_planner import PathPlanner
 
     config = AppConfig()
-    planner = PathPlanner(config.planner, config.car)
-    radius_m, half_m = 20.0, 1.75
-    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
-    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]  # from 0,0 heading +x
+    planner = PathPlanner(config.planner, config.car, mission)
+    a = np.linspace(0.0, 2.0 * math.pi, n_cones, endpoint=False)
+    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
     inward = np.c_[-np.sin(a), np.cos(a)]
     cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
+    colours = np.r_[np.full(n_cones, BLUE), np.full(n_cones, YELLOW)]
+    if extra_xy is not None and extra_colours is not None:
+        cones, colours = np.r_[cones, extra_xy], np.r_[colours, extra_colours]
+    everything = cone_map(cones, colours)
 
-    def state(t_s: float, angle: float, seen: np.ndarray) -> MapState:
+    def state(t_s: float, angle: float, seen: np.ndarray | None = None) -> MapState:
         x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, 8.0, 0.0, 0.0, np.eye(3) * 1e-4)
-        return MapState(t_s, pose, cone_map(cones[seen], colours[seen]), loop_closed=False)
+        pose = PoseEstimate(t_s, x, y, angle, speed_mps, 0.0, 0.0, np.eye(3) * 1e-4)
+        cones_seen = everything if seen is None else cone_map(cones[seen], colours[seen])
+        return MapState(t_s, pose, cones_seen, loop_closed=False)
+
+    return planner, cones, colours, state
+
+
+def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> None:
+    """While no loop is mapped (the far side mapped late, or no colours: no big orange cones)
+    the lap ends where the car crosses its start line again; when the loop then closes, the
+    lap driven still counts, once, and the next crossing is lap 2 (a one-lap autocross on
+    QR_Nov_2022 drove two, and with the camera dead small_track was never finished)."""
+    radius_m = 20.0
+    planner, cones, _, state = _ring("trackdrive", radius_m, 1.75, 40, 8.0)
 
     def near(angle: float) -> np.ndarray:
         x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
@@ -205,13 +221,12 @@ def test_a_loop_that_closes_after_the_line_counts_the_lap_already_driven() -> No
     crossed = int(np.argmax(np.asarray(laps) == 1)) + 1
     assert laps[-1] == 1 and abs(angles[crossed] - 2.0 * math.pi) < 0.1
     # now the whole lap is mapped: the loop closes a fifth of a lap past the start
-    everything = np.ones(len(cones), bool)
-    planner.plan(state(20.1, float(angles[-1]), everything), 20.1)
+    planner.plan(state(20.1, float(angles[-1])), 20.1)
     assert not planner.exploring
     assert planner.lap == 1
     # on to the next crossing: lap 2
     for k, angle in enumerate(np.linspace(2.4 * math.pi, 4.2 * math.pi, 160), 202):
-        planner.plan(state(0.1 * k, float(angle), everything), 0.1 * k)
+        planner.plan(state(0.1 * k, float(angle)), 0.1 * k)
     assert planner.lap == 2
 
 
@@ -221,28 +236,9 @@ def test_a_loop_shorter_than_the_shortest_mapped_loop_closes_after_its_first_lap
     community layout) would never close, and the car explored lap after lap on the gates.
     Once a lap is counted at the start line, a loop as short as a lap may be (``lap_min_m``)
     closes."""
-    from planner_closed_loop_helpers import cone_map
-
-    from common.messages import MapState, PoseEstimate
-    from orchestrator.config import AppConfig
-    from planner.path_planner import PathPlanner
-
-    config = AppConfig()
-    planner = PathPlanner(config.planner, config.car, "trackdrive")
-    radius_m, half_m, n = 3.2, 1.5, 20
-    assert 2.0 * math.pi * radius_m < config.planner.min_loop_length_m
-    a = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
-    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
-    inward = np.c_[-np.sin(a), np.cos(a)]
-    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(n, BLUE), np.full(n, YELLOW)]
-    everything = cone_map(cones, colours)
-
-    def state(t_s: float, angle: float) -> MapState:
-        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, 3.0, 0.0, 0.0, np.eye(3) * 1e-4)
-        return MapState(t_s, pose, everything, loop_closed=False)
-
+    radius_m = 3.2
+    planner, _, _, state = _ring("trackdrive", radius_m, 1.5, 20, 3.0)
+    assert 2.0 * math.pi * radius_m < planner.config.min_loop_length_m
     planner.start_autonomous(state(0.0, 0.0))
     exploring = []
     for k, angle in enumerate(np.linspace(0.0, 2.5 * math.pi, 120)[1:], 1):
@@ -258,27 +254,7 @@ def test_an_autocross_never_closes_its_loop_and_ends_its_lap_at_the_line() -> No
     """Autocross is one lap: a loop found in the cones is not raced (building its racing line
     takes the planner a second that drive's plans have not got), the car explores on and the
     lap ends where it crosses its start line."""
-    from planner_closed_loop_helpers import cone_map
-
-    from common.messages import MapState, PoseEstimate
-    from orchestrator.config import AppConfig
-    from planner.path_planner import PathPlanner
-
-    config = AppConfig()
-    planner = PathPlanner(config.planner, config.car, "autocross")
-    radius_m, half_m = 20.0, 1.75
-    a = np.linspace(0.0, 2.0 * math.pi, 40, endpoint=False)
-    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
-    inward = np.c_[-np.sin(a), np.cos(a)]
-    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(40, BLUE), np.full(40, YELLOW)]
-    everything = cone_map(cones, colours)
-
-    def state(t_s: float, angle: float) -> MapState:
-        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, 8.0, 0.0, 0.0, np.eye(3) * 1e-4)
-        return MapState(t_s, pose, everything, loop_closed=False)
-
+    planner, _, _, state = _ring("autocross", 20.0, 1.75, 40, 8.0)
     planner.start_autonomous(state(0.0, 0.0))
     laps = []
     for k, angle in enumerate(np.linspace(0.0, 2.3 * math.pi, 200)[1:], 1):
@@ -295,31 +271,10 @@ def _laps_round_a_ring(radius_m: float, n_cones: int, line_rad: float, big_radii
     (inside) and yellow cones 1.5 m either side of a circle of ``radius_m`` that starts at the
     origin heading +x, at ``angles`` (rad round the ring, one plan each 0.1 s); big orange cones
     ``line_rad`` round the ring at ``big_radii_m`` from its centre, ``big_spread_rad`` apart."""
-    from planner_closed_loop_helpers import cone_map
-
-    from common.messages import MapState, PoseEstimate
-    from orchestrator.config import AppConfig
-    from planner.path_planner import PathPlanner
-
-    config = AppConfig()
-    planner = PathPlanner(config.planner, config.car, "autocross")
-    half_m = 1.5
-    a = np.linspace(0.0, 2.0 * math.pi, n_cones, endpoint=False)
-    centre = np.c_[radius_m * np.sin(a), radius_m - radius_m * np.cos(a)]
-    inward = np.c_[-np.sin(a), np.cos(a)]
-    cones = np.r_[centre + half_m * inward, centre - half_m * inward]
-    colours = np.r_[np.full(n_cones, BLUE), np.full(n_cones, YELLOW)]
     big = [(r * math.sin(line_rad + da), radius_m - r * math.cos(line_rad + da))
            for r in big_radii_m for da in (-big_spread_rad / 2.0, big_spread_rad / 2.0)]
-    cones = np.r_[cones, np.asarray(big)]
-    colours = np.r_[colours, np.full(len(big), int(ConeColour.BIG_ORANGE))]
-    everything = cone_map(cones, colours)
-
-    def state(t_s: float, angle: float) -> MapState:
-        x, y = radius_m * math.sin(angle), radius_m - radius_m * math.cos(angle)
-        pose = PoseEstimate(t_s, x, y, angle, speed_mps, 0.0, 0.0, np.eye(3) * 1e-4)
-        return MapState(t_s, pose, everything, loop_closed=False)
-
+    planner, _, _, state = _ring("autocross", radius_m, 1.5, n_cones, speed_mps,
+                                 np.asarray(big), np.full(len(big), int(ConeColour.BIG_ORANGE)))
     planner.start_autonomous(state(0.0, 0.0))
     laps = []
     for k, angle in enumerate(angles, 1):
