@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,23 +61,40 @@ def build_race_line(cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy
     return RaceLine(np.asarray(line, np.float64), model)
 
 
+WORKER_NICENESS = 10
+"""How much lower than the caller's the worker's CPU priority is (``os.nice``): on a busy
+machine its second of work must not starve the caller's sensor and control threads."""
+
+
+def _lower_priority() -> None:
+    """The worker's initializer: lower its priority (its modules, scipy among them, are
+    imported when it unpickles this function, before the first job)."""
+    try:
+        os.nice(WORKER_NICENESS)
+    except OSError as exc:  # not allowed here: run at the caller's priority
+        logger.debug("racing line worker: nice failed: %s", exc)
+
+
 class BackgroundRace:
     """One worker process that builds racing lines (:func:`build_race_line`) while the caller
     goes on; one job at a time (a new one replaces the one waiting, whose result is dropped).
 
-    The process starts with the first job (``spawn``: the caller may run threads, which
-    ``fork`` does not copy safely), so a run that never closes its loop starts none, and
-    :meth:`close` terminates it at once (a shutdown never waits for a line)."""
+    The process (``spawn``: the caller may run threads, which ``fork`` does not copy safely)
+    starts at construction, at a lower CPU priority, so that its start-up (a Python with numpy
+    and scipy: a second or more of CPU on a busy machine) falls in the car's wait before the go,
+    not in its first metres; a loaded drive went to EMERGENCY with a stale IMU when it started
+    with the first job. :meth:`close` terminates it at once (a shutdown never waits)."""
 
     def __init__(self) -> None:
-        self._pool: Any = None
+        self._pool: Any = multiprocessing.get_context("spawn").Pool(
+            processes=1, initializer=_lower_priority)
         self._job: Any = None
 
     def submit(self, cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy_m: FloatArray,
                config: PlannerConfig, car: CarConfig, limits: SpeedLimits) -> None:
         """Start building a racing line (the arrays are copied to the worker)."""
         if self._pool is None:
-            self._pool = multiprocessing.get_context("spawn").Pool(processes=1)
+            raise RuntimeError("the racing line worker is closed")
         self._job = self._pool.apply_async(
             build_race_line, (np.array(cones_xy_m), np.array(colours), np.array(guide_xy_m),
                               config, car, limits))

@@ -206,7 +206,10 @@ def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
     handover_s = float(go.group(1))
     # Kill drive once the car moves under its command (the rules' 3 s hold after the go; on a
     # loaded machine the racing line's worker process starts beside it: a generous wait).
-    emulator.wait_for_log(r"the stack drives the car: ([0-9.]+) m/s", 45.0)
+    try:
+        emulator.wait_for_log(r"the stack drives the car: ([0-9.]+) m/s", 45.0)
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\ndrive:\n{drive.log()[-3000:]}") from None
     assert drive.popen.poll() is None, f"drive ended by itself:\n{drive.log()[-3000:]}"
     drive.popen.send_signal(signal.SIGKILL)
     drive.wait(10.0)
