@@ -75,52 +75,82 @@ def _lower_priority() -> None:
         logger.debug("racing line worker: nice failed: %s", exc)
 
 
+def _serve(conn: Any) -> None:
+    """The worker process: build each job's line (:func:`build_race_line`) and send it back
+    (or the error that ended it), until the pipe closes."""
+    _lower_priority()
+    while True:
+        try:
+            args = conn.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            result: Any = build_race_line(*args)
+        except Exception as exc:  # sent back: the planner logs it and drives on
+            result = exc
+        try:
+            conn.send(result)
+        except (BrokenPipeError, OSError):
+            return
+
+
 class BackgroundRace:
     """One worker process that builds racing lines (:func:`build_race_line`) while the caller
-    goes on; one job at a time (a new one replaces the one waiting, whose result is dropped).
+    goes on; the result of the latest job is the one kept (an earlier one still being built is
+    dropped when it arrives).
 
     The process (``spawn``: the caller may run threads, which ``fork`` does not copy safely)
     starts at construction, at a lower CPU priority, so that its start-up (a Python with numpy
     and scipy: a second or more of CPU on a busy machine) falls in the car's wait before the go,
     not in its first metres; a loaded drive went to EMERGENCY with a stale IMU when it started
-    with the first job. :meth:`close` terminates it at once (a shutdown never waits)."""
+    with the first job. A plain process on a pipe, not a ``multiprocessing.Pool``: the pool's
+    terminate could hang while its worker was still starting, and the executive process then
+    outlived its 30 s to stop. :meth:`close` kills it at once (a shutdown never waits)."""
 
     def __init__(self) -> None:
-        self._pool: Any = multiprocessing.get_context("spawn").Pool(
-            processes=1, initializer=_lower_priority)
-        self._job: Any = None
+        ctx = multiprocessing.get_context("spawn")
+        self._conn, child = ctx.Pipe()
+        self._process: Any = ctx.Process(target=_serve, args=(child,), name="racing-line",
+                                         daemon=True)
+        self._process.start()
+        child.close()
+        self._sent = 0
+        self._received = 0
 
     def submit(self, cones_xy_m: FloatArray, colours: NDArray[np.int64], guide_xy_m: FloatArray,
                config: PlannerConfig, car: CarConfig, limits: SpeedLimits) -> None:
         """Start building a racing line (the arrays are copied to the worker)."""
-        if self._pool is None:
+        if self._process is None:
             raise RuntimeError("the racing line worker is closed")
-        self._job = self._pool.apply_async(
-            build_race_line, (np.array(cones_xy_m), np.array(colours), np.array(guide_xy_m),
-                              config, car, limits))
+        self._conn.send((np.array(cones_xy_m), np.array(colours), np.array(guide_xy_m),
+                         config, car, limits))
+        self._sent += 1
 
     @property
     def pending(self) -> bool:
         """A line is being built."""
-        return self._job is not None
+        return self._received < self._sent
 
     def poll(self) -> RaceLine | BaseException | None:
-        """The finished line, or the error that ended its building; None while it is being
-        built (or none was asked for)."""
-        job = self._job
-        if job is None or not job.ready():
-            return None
-        self._job = None
+        """The latest job's line, or the error that ended its building; None while it is
+        being built (or none was asked for)."""
+        result: RaceLine | BaseException | None = None
         try:
-            result: RaceLine = job.get()
-        except Exception as exc:  # the worker's error, re-raised here: the caller logs it
-            return exc
+            while self._received < self._sent and self._conn.poll():
+                got = self._conn.recv()
+                self._received += 1
+                if self._received == self._sent:
+                    result = got
+        except (EOFError, OSError) as exc:
+            self._received = self._sent
+            return RuntimeError(f"the racing line worker ended: {exc!r}")
         return result
 
     def close(self) -> None:
         """Stop the worker at once (a line being built is dropped)."""
-        self._job = None
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
+        if self._process is not None:
+            self._conn.close()
+            self._process.kill()
+            self._process.join(2.0)
+            self._process = None
+        self._received = self._sent
