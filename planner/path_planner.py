@@ -62,6 +62,8 @@ class PathPlanner:
         c = self.config
         self.book = WaypointBook(c.waypoint_spacing_m, c.waypoint_reach_m, c.waypoints_served)
         self._race_worker = BackgroundRace() if c.racing_line_background else None
+        self._lock_cap = steering_lock_cap(car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
+                                           c.crawl_speed_mps)
         self.generator = ManoeuvreGenerator(c, car)
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)
@@ -378,9 +380,7 @@ class PathPlanner:
             kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
-        extra = np.minimum(extra, steering_lock_cap(
-            self.car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
-            c.crawl_speed_mps)(kappa))
+        extra = np.minimum(extra, self._lock_cap(kappa))
         if c.speed_mode == "two_level":
             extra = np.minimum(extra, two_level_speed_mps(
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,

@@ -67,8 +67,7 @@ machine its second of work must not starve the caller's sensor and control threa
 
 
 def _lower_priority() -> None:
-    """The worker's initializer: lower its priority (its modules, scipy among them, are
-    imported when it unpickles this function, before the first job)."""
+    """Lower the worker's CPU priority (its first act, before it waits for a job)."""
     try:
         os.nice(WORKER_NICENESS)
     except OSError as exc:  # not allowed here: run at the caller's priority
