@@ -39,6 +39,10 @@ MIN_ACROSS_M = MIN_GATE_M
 obliquely that less is left is a boundary seen at a slant (cones of one side, colour unknown)."""
 MAX_GATE_WIDTHS = 2.7
 """Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
+BLIND_GATE_WIDTHS = 1.9
+"""Widest gate, in nominal track widths, that a path crosses between two cones of unknown
+colour: wider, the edge spans the infield between two stretches of track as often as a bend
+(which its known cones, or a narrower diagonal beside it, lead through)."""
 MAX_TURN_RAD = 1.2
 """Largest change of heading from one midpoint to the next."""
 SEARCH_RADIUS_M = 30.0
@@ -195,6 +199,7 @@ class _Search:
         self.neighbours: NDArray[np.int32] = tri.neighbors
         self.width_m = track_width_m
         self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
+        self.max_blind_gate_m = BLIND_GATE_WIDTHS * track_width_m
         self.behind: dict[tuple[int, int], float] = {}
         """Edges (lower index first) the car has driven through, with the side it crossed
         them towards (:func:`_edges_crossed`): never a gate back the other way."""
@@ -210,6 +215,8 @@ class _Search:
             return None
         ca, cb = int(self.col[a]), int(self.col[b])
         if ca == cb and ca in (BLUE, YELLOW):
+            return None
+        if length > self.max_blind_gate_m and ca not in (BLUE, YELLOW) and cb not in (BLUE, YELLOW):
             return None
         mid = 0.5 * (pa + pb)
         d = mid - from_xy

@@ -114,6 +114,27 @@ def test_without_colours_a_cone_keeps_its_side() -> None:
     assert np.all(distance < 0.35)
 
 
+def test_without_colours_the_path_ends_where_its_lane_is_unmapped() -> None:
+    """Camera dead, FSG's bottom-left lane: the lane's cones are mapped 17 m ahead, and beside
+    it, 7.5 m across the infield, another stretch runs back. An edge across the infield is as
+    long as a bend's diagonal gate, and the next stretch's gates beyond it would reward the
+    path for its reach: without colours such a wide edge is no gate, and the path ends in its
+    own lane."""
+    x = np.arange(0.0, 17.0, 4.0)
+    lane = np.r_[np.c_[x, np.full(len(x), HALF_WIDTH_M)],
+                 np.c_[x + 2.0, np.full(len(x), -HALF_WIDTH_M)]]
+    xo = np.arange(-2.0, 30.0, 4.0)
+    infield_m = 7.5
+    other = np.r_[np.c_[xo, np.full(len(xo), -HALF_WIDTH_M - infield_m)],
+                  np.c_[xo + 2.0, np.full(len(xo), -3.0 * HALF_WIDTH_M - infield_m)]]
+    cones = np.r_[lane, other]
+    path, bounding = gate_search_path(cones, np.full(len(cones), UNKNOWN), np.array([-1.0, 0.0]),
+                                      0.0, 2.0 * HALF_WIDTH_M)
+    assert path[-1, 0] > 14.0
+    assert np.all(np.abs(path[:, 1]) < HALF_WIDTH_M)
+    assert not bounding[len(lane):].any()
+
+
 def test_same_coloured_cones_are_never_a_gate() -> None:
     cones, _, _ = _thin_infield()
     path_blue, _ = gate_search_path(cones, np.full(len(cones), BLUE), np.zeros(2), 0.0,
