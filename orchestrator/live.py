@@ -50,13 +50,23 @@ from common.messages import (
     ActuatorCommand,
     AsState,
     Health,
-    MissionSelect,
     Plan,
     PoseEstimate,
-    RemoteStop,
     SourceHealth,
 )
 from orchestrator.config import AppConfig, apply_mission
+from orchestrator.layer_messages import (
+    ControlTick,
+    Final,
+    HealthUpdate,
+    LayerError,
+    Loaded,
+    PlanUpdate,
+    PoseUpdate,
+    Start,
+    Stop,
+)
+from orchestrator.layers import ReactiveLayer
 from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import control_sensors, worker_main
 from orchestrator.main_loop import StageTimes
@@ -185,7 +195,9 @@ class LiveMain:
         apply_mission(config.mission, options.laps, options.mission, options.exploration)
         self.clock = RealClock()
         self.sensors = make_sensors(config, self.clock, control_sensors(config))
-        self.controller = make_controller(config)
+        self.reactive = ReactiveLayer(make_controller(config), config.run.control_rate_hz,
+                                      config.mission.mission)
+        self.controller = self.reactive.controller
         options.out_dir.mkdir(parents=True, exist_ok=True)
         sc = config.sensors
         self.remote_sources = tuple(s for s in SOURCES
@@ -193,16 +205,11 @@ class LiveMain:
         self.timeouts_s = {s: float(getattr(sc, s).timeout_s) for s in SOURCES}
         self.times = StageTimes()
         self.periods_s: list[float] = []
-        self.plan_ages_s: list[float] = []
-        """Age (s) of the plan followed at each control tick while driving."""
-        self.pose_ages_s: list[float] = []
-        """Age (s) of the mapper's pose at each control tick while driving."""
         self.wake_late_s: list[float] = []
         """How late each tick woke after its scheduled time (s)."""
         self.errors: list[str] = []
         self.pose: PoseEstimate | None = None
         self.plan: Plan | None = None
-        self.remote: RemoteStop | None = None
         self.loop_closed = False
         self.landmarks = 0
         self.worker_health: Health | None = None
@@ -237,23 +244,24 @@ class LiveMain:
         child_sock.close()
         self._link = Link(parent_sock)
 
-    def _on_message(self, message: tuple[Any, ...]) -> None:
-        kind = message[0]
-        if kind == "pose":
-            _, self.pose, self.loop_closed, self.landmarks = message
-        elif kind == "plan":
-            self.plan = message[1]
-        elif kind == "health":
-            self.worker_health = message[1]
-        elif kind == "loaded":
+    def _on_message(self, message: Any) -> None:
+        if isinstance(message, PoseUpdate):
+            self.pose, self.loop_closed, self.landmarks = (message.pose, message.loop_closed,
+                                                           message.landmarks)
+        elif isinstance(message, PlanUpdate):
+            self.plan = message.plan
+        elif isinstance(message, HealthUpdate):
+            self.worker_health = message.health
+        elif isinstance(message, Loaded):
             self.worker_loaded = True
-        elif kind == "error":
-            log.error("executive process: %s", message[1])
-            self.errors.append(message[1])
-        elif kind == "final":
-            self.worker_stats = message[1]
+        elif isinstance(message, LayerError):
+            log.error("executive process: %s", message.text)
+            self.errors.append(message.text)
+        elif isinstance(message, Final):
+            self.worker_stats = message.stats
         else:
-            log.warning("unknown message from the executive process: %r", kind)
+            log.warning("unknown message from the executive process: %r",
+                        type(message).__name__)
 
     def _drain(self) -> None:
         """Take every message the executive process sent; note it if it is gone."""
@@ -284,7 +292,7 @@ class LiveMain:
         link, process = self._link, self._process
         if link is None or process is None:
             return
-        link.send_nowait(("stop",))
+        link.send_nowait(Stop())
         end = time.monotonic() + WORKER_STOP_TIMEOUT_S
         while not link.closed and not self.worker_stats and time.monotonic() < end:
             link.flush()
@@ -325,7 +333,7 @@ class LiveMain:
                 self.clock = RealClock()
                 self.sensors = make_sensors(self.config, self.clock, control_sensors(self.config))
                 assert self._link is not None
-                self._link.send_nowait(("start", self.clock))
+                self._link.send_nowait(Start(self.clock))
                 previous_policy = set_realtime_priority(self.options.realtime_priority)
                 self.realtime = previous_policy is not None
                 self.sensors.start()  # the CAN receiver thread inherits the priority
@@ -372,26 +380,22 @@ class LiveMain:
             if self.errors:
                 return "; ".join(self.errors)
             batch = self.sensors.take()
-            for reading in batch.readings:
-                if isinstance(reading, RemoteStop):
-                    self.remote = reading
-                elif isinstance(reading, MissionSelect):
-                    self.controller.select_mission(reading.mission)  # to the AS machine
+            self.reactive.take(batch.readings)  # the RES and MISSION_SELECT
             t1 = time.perf_counter()
             command: ActuatorCommand | None = None
             health: Health | None = None
             if self.options.control:
                 health = self._health(now_s)
-                command = self._command(now_s, health)
+                command = self.reactive.step(now_s, self.pose, self.plan, health)
                 self.sensors.send_command(command)
-                self.sensors.report_status(self.controller.as_status(now_s))
+                self.sensors.report_status(self.reactive.as_status(now_s))
                 self.times.add("controller", time.perf_counter() - t1)
             t2 = time.perf_counter()
             record_health = health if ticks % HEALTH_RECORD_EVERY == 0 else None
             ticks += 1
             if batch.raw or batch.readings or command is not None:
-                link.send_nowait(("tick", now_s, batch.raw, batch.readings, command,
-                                  record_health))
+                link.send_nowait(ControlTick(now_s, tuple(batch.raw), tuple(batch.readings),
+                                             command, record_health))
             else:
                 link.flush()
             self.times.add("link", (t1 - t0) + (time.perf_counter() - t2))
@@ -411,18 +415,6 @@ class LiveMain:
         return merge_health(now_s, self.sensors.health(now_s), self.worker_health,
                             self.remote_sources, self.timeouts_s,
                             self.options.executive_report_grace_s)
-
-    def _command(self, now_s: float, health: Health) -> ActuatorCommand:
-        if self.pose is None:
-            return ActuatorCommand(now_s, 0.0, 1.0, 0.0, AsState.READY)
-        command: ActuatorCommand = self.controller.command(
-            now_s, self.pose, self.plan, health, self.remote
-        )
-        if self.controller.state == AsState.DRIVING:
-            self.pose_ages_s.append(now_s - self.pose.timestamp_s)
-            if self.plan is not None:
-                self.plan_ages_s.append(now_s - self.plan.timestamp_s)
-        return command
 
     def _safe_stop(self) -> None:
         """Full brake frames for a moment, so the car stops even if nothing else is sent."""
@@ -447,7 +439,8 @@ class LiveMain:
                 "control_period_max_ms": round(float(periods_ms.max()), 3),
                 "control_ticks": int(periods_ms.size + 1),
             })
-        for name, ages in (("plan_age", self.plan_ages_s), ("map_age", self.pose_ages_s)):
+        for name, ages in (("plan_age", self.reactive.plan_ages_s),
+                           ("map_age", self.reactive.pose_ages_s)):
             if ages:
                 ages_ms = np.asarray(ages) * 1e3
                 timing[f"{name}_p99_ms"] = round(float(np.percentile(ages_ms, 99)), 3)
@@ -459,6 +452,8 @@ class LiveMain:
         stages = self.times.summary_ms()
         stages.update(self.worker_stats.get("stages_ms", {}))
         timing["stages_ms"] = stages
+        timing["lags_ms"] = {"controller": self.reactive.rate.summary_ms(),
+                             **self.worker_stats.get("lags_ms", {})}
         link = self._link
         if link is not None:
             timing["link_messages"] = {"sent": link.sent, "received": link.received,

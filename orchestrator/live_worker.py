@@ -7,18 +7,18 @@ the control loop. Here:
 - the Sensor Manager runs the receivers of every enabled source but CAN (GPS, IMU, LiDAR,
   camera); the CAN frames (and their decoded readings) come from the control process with
   every control tick;
-- the executive layer (thread ``mapper``) records the raw units, updates the Mapper, lets the
-  planner record waypoints and sends each new pose to the control process;
-- the deliberative layer (thread ``planner``) plans at ``run.plan_rate_hz`` and sends each plan;
+- thread ``mapper`` runs the :class:`~orchestrator.layers.ExecutiveLayer` (records the raw
+  units, drops stale readings, updates the Mapper) on whatever arrived, lets the deliberative
+  layer observe each map state, sends each new pose to the control process and steps the
+  :class:`~orchestrator.layers.OutputLayer` (map states to the recording, frames);
+- thread ``planner`` runs the :class:`~orchestrator.layers.DeliberativeLayer` at
+  ``run.plan_rate_hz`` (its rate keeper sets the wake-ups) and sends each plan;
 - thread ``health`` sends the sensors' health at :data:`HEALTH_RATE_HZ`;
 - the main thread takes the control process's messages: CAN frames for the mapper, commands and
-  health for the recording, ``stop``.
+  health for the recording, :class:`~orchestrator.layer_messages.Stop`.
 
-Messages to the control process (tuples): ``("loaded",)`` (layers built),
-``("pose", pose, loop_closed, landmarks)``, ``("plan", plan)``, ``("health", health)``,
-``("error", text)``, ``("final", stats)``. From it: ``("start", clock)`` (the run's clock:
-start the receivers), ``("tick", now_s, can_raw, can_readings, command, health)``
-(``command`` / ``health`` may be None) and ``("stop",)``.
+The layers are the objects ``Main.tick`` steps in simulation and replay; the messages are those
+of :mod:`orchestrator.layer_messages`.
 
 The process ignores SIGINT and SIGTERM (Ctrl-C reaches the whole process group): the control
 process decides when the run ends. It ends on ``stop``, on an error in one of its layers, or when
@@ -45,18 +45,29 @@ from common.messages import (
     ActuatorCommand,
     AsState,
     CanFrame,
-    GpsFix,
-    MapState,
     Plan,
+    RawBytes,
     Reading,
     RemoteStop,
 )
 from orchestrator.config import AppConfig
+from orchestrator.layer_messages import (
+    ControlTick,
+    Final,
+    HealthUpdate,
+    LayerError,
+    Loaded,
+    PlanUpdate,
+    PoseUpdate,
+    Start,
+    Stop,
+)
+from orchestrator.layers import DeliberativeLayer, ExecutiveLayer, OutputLayer
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
 from orchestrator.priority import set_niceness
-from recordings.topics import COMMAND, HEALTH, MAP_STATE, PLAN
+from recordings.topics import COMMAND, PLAN
 from sensors.config import SensorsConfig
 
 if TYPE_CHECKING:
@@ -108,10 +119,8 @@ class Worker:
         self.clock = clock
         self.link = link
         self.sensors = make_sensors(config, clock, worker_sensors(config))
-        self.mapper = make_mapper(config) if options.control else None
         # on the car the racing line is built beside the planner's loop, not in it
         config.planner.racing_line_background = True
-        self.planner = make_planner(config) if options.control else None
         self.hasher = HashSink()
         self.recorder: Any = None
         if options.record:
@@ -125,41 +134,41 @@ class Worker:
         from orchestrator.outputs import start_live
 
         self.live: Any = start_live(options.live, config)
+        run = config.run
+        self.executive = ExecutiveLayer(make_mapper(config) if options.control else None,
+                                        run.stale_input_s, self.recorder, self.live)
+        self.deliberative = (DeliberativeLayer(make_planner(config), run.plan_rate_hz)
+                             if options.control else None)
+        sinks = [self.hasher] + ([self.recorder] if self.recorder is not None else [])
+        self.output = OutputLayer(sinks, run.output_record_rate_hz, config.visualiser.fps,
+                                  self.recorder, self.visualiser, self.live)
         self.times = StageTimes()
         self.stop = threading.Event()
         self.errors: list[str] = []
-        self._lock = threading.Lock()
-        self._can: deque[tuple[list[CanFrame], list[Reading]]] = deque()
+        self._can: deque[tuple[tuple[CanFrame | RawBytes, ...], tuple[Reading, ...]]] = deque()
         self._can_lock = threading.Lock()
-        self.map_state: MapState | None = None
         self.plan: Plan | None = None
         self.command: ActuatorCommand | None = None
         self.remote: RemoteStop | None = None
-        self.autonomous_started = False
         self.gc_times: GcTimes | None = None
 
-    # ------------------------------------------------------------------ outputs
-    def _emit(self, topic: str, message: Any, now_s: float) -> None:
-        with self._lock:
-            self.hasher.write(topic, message, now_s)
-            if self.recorder is not None:
-                self.recorder.write(topic, message, now_s)
-        if self.live is not None:
-            self.live.write(topic, message, now_s)
+    @property
+    def planner(self) -> Any:
+        return self.deliberative.planner if self.deliberative is not None else None
 
     def _fail(self, layer: str, exc: BaseException) -> None:
         log.exception("%s layer failed", layer)
         text = f"{layer}: {exc!r}"
         self.errors.append(text)
-        self.link.send(("error", text))
+        self.link.send(LayerError(text))
         self.stop.set()
 
     # ------------------------------------------------------------------ layers
-    def _take_can(self) -> tuple[list[CanFrame], list[Reading]]:
+    def _take_can(self) -> tuple[list[CanFrame | RawBytes], list[Reading]]:
         with self._can_lock:
             items = list(self._can)
             self._can.clear()
-        raw: list[CanFrame] = []
+        raw: list[CanFrame | RawBytes] = []
         readings: list[Reading] = []
         for r, p in items:
             raw.extend(r)
@@ -167,10 +176,6 @@ class Worker:
         return raw, readings
 
     def _executive(self) -> None:
-        output_period_s = 1.0 / self.config.run.output_record_rate_hz
-        frame_period_s = 1.0 / max(self.config.visualiser.fps, 1e-6)
-        next_output_s = 0.0
-        next_frame_s = 0.0
         while not self.stop.is_set():
             try:
                 batch = self.sensors.take()
@@ -179,70 +184,47 @@ class Worker:
                     time.sleep(IDLE_SLEEP_S)
                     continue
                 now_s = self.clock.now_s()
-                raw = _merge_by_time(list(batch.raw), list(can_raw))
-                readings = _merge_by_time(list(batch.readings), can_readings)
-                if self.recorder is not None:
-                    for unit in raw:
-                        self.recorder.write_raw(unit)
-                    for reading in readings:
-                        if isinstance(reading, GpsFix):
-                            self.recorder.write_gps_fix(reading)
-                if self.live is not None:
-                    for reading in readings:
-                        if isinstance(reading, GpsFix):
-                            self.live.write_gps_fix(reading)
-                if self.mapper is None or self.planner is None:
-                    continue
+                raw = _merge_by_time(list(batch.raw), can_raw)
+                readings = self.executive.admit(
+                    now_s, raw, _merge_by_time(list(batch.readings), can_readings))
+                if self.deliberative is None:
+                    continue  # record only
                 t0 = time.perf_counter()
-                map_state = self.mapper.update(readings, now_s)
+                map_state = self.executive.step(now_s, readings)
                 self.times.add("mapper", time.perf_counter() - t0)
-                self.map_state = map_state
-                self.link.send(("pose", map_state.pose, map_state.loop_closed,
-                                len(map_state.cones)))
-                self.planner.observe(map_state)
-                if now_s >= next_output_s:
-                    next_output_s = now_s + output_period_s
-                    self._emit(MAP_STATE, map_state, now_s)
-                    if self.visualiser is not None:
-                        pose = map_state.pose
-                        self.visualiser.note_pose(
-                            pose.x_m, pose.y_m, pose.speed_mps, now_s,
-                            self.plan.lap if self.plan is not None else 0,
-                            self.command is not None
-                            and self.command.state == AsState.DRIVING)
-                if self.visualiser is not None and now_s >= next_frame_s:
-                    next_frame_s = now_s + frame_period_s
-                    self.visualiser.submit(map_state, self.plan, self.command)
+                self.link.send(PoseUpdate(map_state.pose, map_state.loop_closed,
+                                          len(map_state.cones)))
+                self.deliberative.observe(map_state)
+                self.output.step(now_s, map_state, self.plan, self.command)
             except Exception as exc:  # a crash here must stop the car, never go silent
                 self._fail("mapper", exc)
 
     def _deliberative(self) -> None:
-        assert self.planner is not None
-        period_s = 1.0 / self.config.run.plan_rate_hz
-        next_s = self.clock.now_s()
+        layer = self.deliberative
+        assert layer is not None
+        rate = layer.rate
         while not self.stop.is_set():
             try:
-                next_s += period_s
-                self.clock.sleep_until(next_s)
-                map_state = self.map_state
+                # before the first plan: look again a period later
+                self.clock.sleep_until(rate.next_s if rate.next_s is not None
+                                       else self.clock.now_s() + rate.period_s)
+                map_state = self.executive.map_state
                 if map_state is None:
                     continue
-                remote = self.remote
-                go = remote is not None and remote.go
-                if not self.autonomous_started and (map_state.loop_closed or go):
-                    t0 = time.perf_counter()
-                    self.planner.start_autonomous(map_state)
-                    self.times.add("start_autonomous", time.perf_counter() - t0)
-                    self.autonomous_started = True
-                if not self.autonomous_started:
-                    continue
+                go = self.remote is not None and self.remote.go
+                driving = self.command is not None and self.command.state == AsState.DRIVING
                 now_s = self.clock.now_s()
+                started = layer.autonomous_started
                 t0 = time.perf_counter()
-                plan = self.planner.plan(map_state, now_s)
+                plan = layer.step(now_s, map_state, go, driving)
+                if not started and layer.start_s is not None:
+                    self.times.add("start_autonomous", layer.start_s)
+                if plan is None:
+                    continue
                 self.times.add("planner", time.perf_counter() - t0)
                 self.plan = plan
-                self.link.send(("plan", plan))
-                self._emit(PLAN, plan, now_s)
+                self.link.send(PlanUpdate(plan))
+                self.output.emit(PLAN, plan, now_s)
             except Exception as exc:
                 self._fail("planner", exc)
 
@@ -254,33 +236,29 @@ class Worker:
                 next_s += period_s
                 self.clock.sleep_until(next_s)
                 health = self.sensors.health(self.clock.now_s())
-                if not self.link.send(("health", health)):
+                if not self.link.send(HealthUpdate(health)):
                     break
             except Exception as exc:
                 self._fail("health", exc)
 
     # ------------------------------------------------------------------ control messages
-    def _on_message(self, message: tuple[Any, ...]) -> None:
-        kind = message[0]
-        if kind == "tick":
-            _, now_s, can_raw, can_readings, command, health = message
-            if can_raw or can_readings:
-                for reading in can_readings:
+    def _on_message(self, message: Any) -> None:
+        if isinstance(message, ControlTick):
+            if message.can_raw or message.can_readings:
+                for reading in message.can_readings:
                     if isinstance(reading, RemoteStop):
                         self.remote = reading
                 with self._can_lock:
-                    self._can.append((can_raw, can_readings))
-            if command is not None:
-                self.command = command
-                self._emit(COMMAND, command, now_s)
-            if health is not None and self.recorder is not None:
-                self.recorder.write(HEALTH, health, now_s)
-            if health is not None and self.live is not None:
-                self.live.write(HEALTH, health, now_s)
-        elif kind == "stop":
+                    self._can.append((message.can_raw, message.can_readings))
+            if message.command is not None:
+                self.command = message.command
+                self.output.emit(COMMAND, message.command, message.now_s)
+            if message.health is not None:
+                self.output.write_health(message.health, message.now_s)
+        elif isinstance(message, Stop):
             self.stop.set()
         else:
-            log.warning("unknown message from the control process: %r", kind)
+            log.warning("unknown message from the control process: %r", type(message).__name__)
 
     def _guarded(self, layer: str, body: Callable[[], None]) -> None:
         """Run a layer's thread body; whatever escapes it stops the run, reported."""
@@ -300,7 +278,7 @@ class Worker:
     def run(self) -> None:
         """Start the layers, serve the control process until the end, then shut down."""
         layers = [("mapper", self._executive), ("health", self._health)]
-        if self.planner is not None:
+        if self.deliberative is not None:
             layers.append(("planner", self._deliberative))
         threads = [threading.Thread(target=self._guarded, args=(name, body), name=name,
                                     daemon=True) for name, body in layers]
@@ -310,13 +288,13 @@ class Worker:
         gc.freeze()
         self.gc_times = GcTimes()
         gc.callbacks.append(self.gc_times)
-        self.link.send(("loaded",))
+        self.link.send(Loaded())
         started = False
         try:
             while not self.stop.is_set() and not started:
                 for message in self.link.recv(0.05):
-                    if message[0] == "start":
-                        self._start(message[1])
+                    if isinstance(message, Start):
+                        self._start(message.clock)
                         started = True
                     else:
                         self._on_message(message)
@@ -332,7 +310,7 @@ class Worker:
                     self.stop.set()
             # what the control process sent before it asked to stop (last commands, health)
             for message in self.link.poll():
-                if message[0] == "tick":
+                if isinstance(message, ControlTick):
                     self._on_message(message)
         except Exception as exc:
             self._fail("executive", exc)
@@ -354,6 +332,7 @@ class Worker:
                     log.exception("closing the %s failed", name)
         stats: dict[str, Any] = {
             "stages_ms": self.times.summary_ms(),
+            "lags_ms": self._lags_ms(),
             "outputs_sha256": self.hasher.hexdigest(),
             "errors": self.errors,
         }
@@ -366,7 +345,16 @@ class Worker:
         if self.visualiser is not None:
             stats["frames"] = {"submitted": self.visualiser.submitted,
                                "dropped": self.visualiser.dropped}
-        self.link.send(("final", stats))
+        self.link.send(Final(stats))
+
+    def _lags_ms(self) -> dict[str, dict[str, float]]:
+        """The executive's lag behind its sensors, the planner's and the outputs' behind
+        their rates (ms)."""
+        lags = {"mapper": self.executive.summary_ms(),
+                "outputs": self.output.output_rate.summary_ms()}
+        if self.deliberative is not None:
+            lags["planner"] = self.deliberative.rate.summary_ms()
+        return lags
 
 
 class GcTimes:
@@ -399,8 +387,8 @@ def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
         worker = Worker(config, options, clock, link)
     except Exception as exc:
         log.exception("the executive process could not start")
-        link.send(("error", f"executive start: {exc!r}"))
-        link.send(("final", {"errors": [traceback.format_exc(limit=3)]}))
+        link.send(LayerError(f"executive start: {exc!r}"))
+        link.send(Final({"errors": [traceback.format_exc(limit=3)]}))
         link.close()
         return
     try:

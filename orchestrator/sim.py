@@ -396,6 +396,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
             "control_period_p99_ms": round(1e3 / config.run.control_rate_hz, 3),
             "tick_wall_p99_ms": tick_ms.get("p99_ms"),
             "stages_ms": main.times.summary_ms(),
+            "lags_ms": main.lags_ms(),
         },
         "as_state": main.controller.state.name,
         "as_transitions": [

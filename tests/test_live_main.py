@@ -14,9 +14,13 @@ from pathlib import Path
 import can
 import pytest
 
-from common.messages import ActuatorCommand, AsState, CanFrame, WheelSpeeds
+from common.clock import RealClock
+from common.messages import ActuatorCommand, AsState, CanFrame, RemoteStop, WheelSpeeds
 from orchestrator.config import AppConfig
+from orchestrator.layer_messages import ControlTick, Final, LayerError, Start, Stop
 from orchestrator.live import DriveOptions, LiveMain
+from orchestrator.live_link import Link, link_pair
+from orchestrator.live_worker import Worker
 from recordings.player import Player
 from sensors.can_codec import CanCodec
 
@@ -133,18 +137,60 @@ def test_executive_process_killed_stops_the_car(tmp_path: Path) -> None:
     assert ends_with_full_brake(car.commands)
 
 
-def test_a_failing_layer_stops_the_run_with_its_error(tmp_path: Path) -> None:
+def test_an_executive_process_that_cannot_start_stops_the_run(tmp_path: Path) -> None:
     config = live_config()
-    config.run.plan_rate_hz = 0.0  # the planner layer's first line divides by it
+    config.run.plan_rate_hz = 0.0  # the deliberative layer's rate keeper refuses it
     car = Car(config.sensors.can.channel)
     try:
         summary = LiveMain(config, DriveOptions(tmp_path, seconds=30.0,
                                                 realtime_priority=0)).run()
     finally:
         car.close()
-    assert summary["stop_reason"].startswith("planner: ZeroDivisionError"), summary
-    assert isinstance(summary["outputs_sha256"], str)  # it still closed its recording
-    assert ends_with_full_brake(car.commands)
+    assert summary["stop_reason"].startswith("executive start: ValueError"), summary
+    assert "rate must be > 0" in summary["stop_reason"]
+    assert not any(c.throttle > 0.0 for c in car.commands)  # the car was never driven
+    assert summary["as_state"] != "DRIVING"
+
+
+def test_a_failing_layer_thread_reports_its_error_and_closes_the_recording(
+        tmp_path: Path) -> None:
+    """The executive process's layers in-process, the planner's step made to fail once the
+    RES says go: the worker sends the error, stops its threads, closes its recording and sends
+    its statistics (LiveMain then stops the car: the test above)."""
+    config = live_config()
+    ours, theirs = link_pair()
+    link, peer = Link(theirs), Link(ours)
+    worker = Worker(config, DriveOptions(tmp_path, realtime_priority=0), RealClock(), link)
+    assert worker.deliberative is not None
+
+    def fail(*_args: object) -> None:
+        raise ZeroDivisionError("planned to fail")
+
+    worker.deliberative.step = fail  # type: ignore[method-assign,assignment]
+    thread = threading.Thread(target=worker.run)
+    thread.start()
+    received: list[object] = []
+    clock = RealClock()
+    codec = CanCodec()
+    try:
+        peer.send(Start(clock))
+        end = time.monotonic() + 20.0
+        while not any(isinstance(m, Final) for m in received) and time.monotonic() < end:
+            now_s = clock.now_s()
+            speeds = WheelSpeeds(now_s, 0.0, 0.0, 0.0, 0.0)
+            peer.send(ControlTick(now_s, (codec.encode_wheel_speeds(speeds),),
+                                  (speeds, RemoteStop(now_s, emergency=False, go=True))))
+            received.extend(peer.recv(0.05))
+    finally:
+        peer.send(Stop())
+        thread.join(10.0)
+        peer.close()
+    errors = [m.text for m in received if isinstance(m, LayerError)]
+    assert errors and errors[0].startswith("planner: ZeroDivisionError"), errors
+    final = next(m for m in received if isinstance(m, Final))
+    assert isinstance(final.stats["outputs_sha256"], str)
+    assert (tmp_path / "recording.mcap").stat().st_size > 0
+    assert not thread.is_alive()
 
 
 @pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="no sched_setscheduler")
