@@ -16,11 +16,29 @@ from simulator.track_formats import parse_eufs_csv, parse_fssim_yaml
 from simulator.track_generator import default_track, generate_track
 from simulator.track_layouts import build_track
 
+SHARED_TRACKS = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks"
+"""The shared track files beside the repository (``../shared/data/tracks``): a bare file name
+such as ``FSG.yaml`` is looked up there."""
+
+
+def find_shared_track(name: str, root: Path = SHARED_TRACKS) -> Path | None:
+    """The one file called ``name`` under ``root`` (searched recursively), None when there is
+    none; :class:`TrackError` when several are."""
+    if not root.is_dir():
+        return None
+    found = sorted(root.rglob(name))
+    if len(found) > 1:
+        listed = ", ".join(str(p.relative_to(root)) for p in found)
+        raise TrackError(f"track {name!r}: several files of that name under {root}: {listed}; "
+                         f"give the path")
+    return found[0] if found else None
+
 
 def load_track(name_or_path: str) -> Track:
     """A track by name: ``"default"``, ``"gen:SEED"`` (a generated trackdrive), ``"hard:NAME"``
-    (:mod:`simulator.hard_tracks`), or a path to an
-    EUFS ``.csv`` or AMZ FSSIM ``.yaml`` file. Raises :class:`TrackError` with a clear message."""
+    (:mod:`simulator.hard_tracks`), or a path to an EUFS ``.csv`` or AMZ FSSIM ``.yaml`` file;
+    a bare file name that is not in the working directory is looked up in
+    :data:`SHARED_TRACKS`. Raises :class:`TrackError` with a clear message."""
     if name_or_path == "default":
         return default_track()
     if name_or_path.startswith("gen:"):
@@ -37,9 +55,11 @@ def load_track(name_or_path: str) -> Track:
 
         return hard_track(name_or_path[5:])
     path = Path(name_or_path)
+    if not path.exists() and path.name == name_or_path:
+        path = find_shared_track(name_or_path) or path
     if not path.exists():
         raise TrackError(f"track {name_or_path!r}: no such file (use 'default', 'gen:SEED',"
-                         f" or a .csv / .yaml track file)")
+                         f" a .csv / .yaml track file, or the name of one in {SHARED_TRACKS})")
     suffix = path.suffix.lower()
     if suffix == ".csv":
         raw = parse_eufs_csv(path)

@@ -14,7 +14,7 @@ from common.errors import TrackError
 from common.messages import ConeColour, ConeSize
 from common.polyline import nearest_on_polyline
 from simulator.track_generator import check_fs_rules, default_track, generate_track
-from simulator.tracks import load_track
+from simulator.tracks import find_shared_track, load_track
 from support.shared_data import shared_path
 
 DATA = shared_path("tracks")
@@ -242,3 +242,21 @@ def test_a_track_narrower_than_the_car_is_refused_with_its_widths() -> None:
     narrow = track_from_centreline("narrow", centre, 0.8, 0)
     with pytest.raises(TrackError, match=r"0\.[67]\d m wide .* needs 1\.70 m"):
         narrow.check_drivable(1.4)
+
+
+def test_a_bare_file_name_is_found_among_the_shared_tracks() -> None:
+    by_name = load_track("FSG.yaml")
+    by_path = load_track(str(DATA / "amz_fssim" / "FSG.yaml"))
+    assert by_name.lap_length_m == pytest.approx(by_path.lap_length_m)
+    assert find_shared_track("FSG.yaml") == DATA / "amz_fssim" / "FSG.yaml"
+    with pytest.raises(TrackError, match="no such file"):
+        load_track("no_such_track.csv")
+
+
+def test_a_bare_name_of_several_shared_files_asks_for_the_path(tmp_path: Path) -> None:
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "oval.csv").write_text("tag,x,y\n")
+    with pytest.raises(TrackError, match="several files of that name"):
+        find_shared_track("oval.csv", tmp_path)
+    assert find_shared_track("other.csv", tmp_path) is None
