@@ -4,9 +4,9 @@ Starts ``--busy`` processes (default 2) that spin, then ``emulate`` on small_tra
 real transports: pseudo-terminals, slcan, UDP loopback) and ``drive --laps N`` against it, as
 ``tests/test_e2e_emulate.py`` does. drive runs as on the car, its control loop at its default
 real-time priority (without the privilege it says so and runs without); the emulator, which
-stands in for the car's own hardware, shares the cores here. When drive ends (or after ``--seconds``) it prints laps, cones
-hit (the emulated world's count), the control period p99 against its target, the plan and map
-age p99 at the control loop, and the stop reason; last line
+stands in for the car's own hardware, shares the cores here. When drive ends (or after
+``--seconds``) it prints laps, cones hit (the emulated world's count), the control period p99
+against its target, the plan and map age p99 at the control loop, and the stop reason; last line
 ``control_p99_over_period_ms=<x> laps=<n> cones_hit=<n>``.
 """
 
