@@ -147,7 +147,6 @@ class Worker:
         self.errors: list[str] = []
         self._can: deque[tuple[tuple[CanFrame | RawBytes, ...], tuple[Reading, ...]]] = deque()
         self._can_lock = threading.Lock()
-        self.plan: Plan | None = None
         self.command: ActuatorCommand | None = None
         self.remote: RemoteStop | None = None
         self.gc_times: GcTimes | None = None
@@ -155,6 +154,11 @@ class Worker:
     @property
     def planner(self) -> Any:
         return self.deliberative.planner if self.deliberative is not None else None
+
+    @property
+    def plan(self) -> Plan | None:
+        """The deliberative layer's last plan (None before the first, or record-only)."""
+        return self.deliberative.plan if self.deliberative is not None else None
 
     def _fail(self, layer: str, exc: BaseException) -> None:
         log.exception("%s layer failed", layer)
@@ -222,7 +226,6 @@ class Worker:
                 if plan is None:
                     continue
                 self.times.add("planner", time.perf_counter() - t0)
-                self.plan = plan
                 self.link.send(PlanUpdate(plan))
                 self.output.emit(PLAN, plan, now_s)
             except Exception as exc:

@@ -124,8 +124,6 @@ class Main:
         self.output = OutputLayer(outputs, run.output_record_rate_hz, config.visualiser.fps,
                                   recorder, visualiser, live)
         self.times = StageTimes()
-        self.plan: Plan | None = None
-        self.command: ActuatorCommand | None = None
         self.health: Health | None = None
         self.status_frame: CanFrame | None = None
         """The ``AS_STATUS`` frame sent this tick (None: none was due)."""
@@ -149,6 +147,16 @@ class Main:
     @property
     def map_state(self) -> MapState | None:
         return self.executive.map_state
+
+    @property
+    def plan(self) -> Plan | None:
+        """The last plan (None before the first)."""
+        return self.deliberative.plan
+
+    @property
+    def command(self) -> ActuatorCommand | None:
+        """The last command (None before the first tick)."""
+        return self.reactive.command
 
     @property
     def rejected(self) -> Counter[str]:
@@ -196,21 +204,20 @@ class Main:
         plan = self.deliberative.step(now_s, map_state, self.reactive.go, self.reactive.driving)
         if plan is not None:
             self.times.add("planner", time.perf_counter() - t4)
-            self.plan = plan
             self.output.emit(PLAN, plan, now_s)
 
         t5 = time.perf_counter()
         self.health = self.sensors.health(now_s)
         t5h = time.perf_counter()
         self.times.add("health", t5h - t5)
-        self.command = self.reactive.step(now_s, map_state.pose, self.plan, self.health)
+        command = self.reactive.step(now_s, map_state.pose, self.plan, self.health)
         self.status_frame = self.sensors.report_status(self.reactive.as_status(now_s))
         t6 = time.perf_counter()
         self.times.add("controller", t6 - t5h)
 
-        self.output.emit(COMMAND, self.command, now_s)
-        self.output.step(now_s, map_state, self.plan, self.command, self.health,
+        self.output.emit(COMMAND, command, now_s)
+        self.output.step(now_s, map_state, self.plan, command, self.health,
                          truth=self.truth, track=self.track)
         self.times.add("tick", time.perf_counter() - t0)
         self.ticks += 1
-        return self.command
+        return command
