@@ -136,10 +136,18 @@ class PathPlanner:
         self._reset_progress(map_state)
 
     def explore(self, map_state: MapState) -> bool:
-        """The local planner's call while exploring: the baseframe (``frame``) from the cones
-        mapped so far, ordered into the track ahead of the car (a loop that passes the start
-        closes it). True when a frame was made; what :meth:`plan` does first each call."""
+        """The local planner's call while exploring: the distance driven and laps counted so
+        far, then the baseframe (``frame``) from the cones mapped so far, ordered into the
+        track ahead of the car (a loop that passes the start closes it). True when a frame was
+        made; what :meth:`plan` does first each call while exploring."""
+        self._count_exploration(map_state)
         return self._frame_from_cones(map_state)
+
+    def _count_exploration(self, map_state: MapState) -> None:
+        pose = map_state.pose
+        if self._explored is not None and (self.frame is None or not self.frame.closed):
+            self._explored.update(pose.x_m, pose.y_m, map_state)
+            self.lap = max(self.lap, self._explored.laps)
 
     @property
     def exploring(self) -> bool:
@@ -282,12 +290,17 @@ class PathPlanner:
         if self._explored is not None and self._explored.laps >= 1:
             # a lap counted at the start line: the loop may be as short as a lap may be
             min_loop_m = min(min_loop_m, c.lap_min_m)
-        pts, closed = waypoints_from_cones(
-            map_state.cones.xy_m, map_state.cones.colour, (pose.x_m, pose.y_m), pose.yaw_rad,
-            min_pair_m=c.min_cone_pair_distance_m, max_pair_m=c.max_cone_pair_distance_m,
-            track_width_m=c.nominal_track_width_m, max_step_m=c.waypoint_max_step_m,
-            max_turn_rad=c.waypoint_max_turn_rad, min_loop_length_m=min_loop_m,
-        )
+        if self._loop_search_pointless(pose.x_m, pose.y_m, min_loop_m):
+            pts, closed = np.zeros((0, 2)), False
+            self.rejects["loop_search_skipped"] += 1
+        else:
+            pts, closed = waypoints_from_cones(
+                map_state.cones.xy_m, map_state.cones.colour, (pose.x_m, pose.y_m),
+                pose.yaw_rad, min_pair_m=c.min_cone_pair_distance_m,
+                max_pair_m=c.max_cone_pair_distance_m, track_width_m=c.nominal_track_width_m,
+                max_step_m=c.waypoint_max_step_m, max_turn_rad=c.waypoint_max_turn_rad,
+                min_loop_length_m=min_loop_m,
+            )
         if closed and self._origin_xy is not None:
             refusal = self._loop_refusal(pts)
             if refusal:
@@ -343,6 +356,29 @@ class PathPlanner:
         self._speed_mps = self._profile(
             frame, self.known.stop_s_m(KnownPathMission.scale(frame.length_m, path)))
         return True
+
+    def _loop_search_pointless(self, x_m: float, y_m: float, min_loop_m: float) -> bool:
+        """While exploring, whether :meth:`_loop_refusal` would refuse any loop the cones could
+        make now, so the search for one (a quarter of the call) can be left out: in autocross;
+        before the car has driven ``min_loop_m - loop_unseen_max_m`` (a loop is at least
+        ``min_loop_m`` long); and in the first lap while the car is further from the start
+        than ``loop_unseen_max_m`` plus the start's ``loop_through_start_m`` and a tenth of
+        the distance driven. The loop is ordered from the car and passes the start, so the
+        track ahead of the car to the start is at least that straight distance; the car has
+        driven the rest of the loop (give or take a tenth: its line is not the middle), and
+        an accepted loop leaves at most ``loop_unseen_max_m`` of it unseen."""
+        if self._origin_xy is None or self._explored is None:
+            return False
+        if self.mission == "autocross":
+            return True
+        c = self.config
+        explored = self._explored
+        if explored.explored_m < min_loop_m - c.loop_unseen_max_m:
+            return True
+        if explored.laps >= 1:
+            return False
+        reach_m = c.loop_unseen_max_m + c.loop_through_start_m + 0.1 * explored.explored_m
+        return math.hypot(x_m - self._origin_xy[0], y_m - self._origin_xy[1]) > reach_m
 
     def _loop_refusal(self, pts: FloatArray) -> str:
         """Why a loop found in the cones while exploring is not the track ('' when it is): it
@@ -468,10 +504,8 @@ class PathPlanner:
             self.rejects["non_finite_pose"] += 1
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
-        if self._origin_xy is not None and (self.frame is None or not self.frame.closed):
-            if self._explored is not None:
-                self._explored.update(pose.x_m, pose.y_m, map_state)
-                self.lap = max(self.lap, self._explored.laps)
+        if self._origin_xy is not None:
+            self._count_exploration(map_state)
         if self._race_worker is not None and self._race_worker.pending:
             self._take_race_line(map_state)
         if self.known is not None:

@@ -162,6 +162,43 @@ def test_merge_deletes_rows_and_columns() -> None:
     assert np.all(np.linalg.eigvalsh(slam.P) > 0)
 
 
+def _start_with_big_cones(new_xy: np.ndarray, car_x_m: float) -> EkfSlam:
+    """A filter a lap after the start: the start's four big orange cones mapped long ago (two
+    rows 2.6 m apart, FSG's layout) and ``new_xy`` mapped again just now, 0.3 m off by drift;
+    the car at ``car_x_m`` on the x axis heading +x."""
+    old_xy = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
+    slam = _filter_with_landmarks(np.vstack([old_xy, new_xy + [0.3, 0.1]]), 0.1)
+    x = slam.x.copy()
+    x[0] = car_x_m
+    slam.load_state(x, slam.P)
+    slam.odometer_m = 300.0
+    book = slam.book
+    book.first_seen_m[:4] = book.last_seen_m[:4] = 0.0
+    book.first_seen_m[4:] = book.last_seen_m[4:] = 298.0
+    book.size_votes[:, int(ConeSize.LARGE)] = 5.0
+    return slam
+
+
+def test_loop_closes_on_an_unambiguous_part_of_the_start_pattern() -> None:
+    # Three of the four big cones mapped again: no other shift pairs three, so the loop closes
+    # although the car has not passed the old cones yet.
+    three = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5]])
+    slam = _start_with_big_cones(three, car_x_m=2.0)
+    assert slam.try_close_loop()
+    assert slam.merged_on_closure >= 3 and slam.n_landmarks == 4
+
+
+def test_loop_waits_while_the_start_pattern_is_ambiguous() -> None:
+    # One row of two: a shift of one row (2.6 m) pairs them as well as the true one. Wait
+    # until the old cones are behind the car; then the smaller drift wins.
+    row = np.array([[6.95, 2.5], [6.95, -2.5]])
+    slam = _start_with_big_cones(row, car_x_m=2.0)
+    assert not slam.try_close_loop()
+    slam = _start_with_big_cones(row, car_x_m=10.0)
+    assert slam.try_close_loop()
+    assert np.allclose(slam.landmarks_xy_m[:2], [[7.1, 2.55], [7.1, -2.45]], atol=0.05)
+
+
 def test_odometry_and_gps_reduce_uncertainty_and_reject_bad_input() -> None:
     slam = EkfSlam(MapperConfig(), CarConfig())
     for k in range(200):

@@ -46,9 +46,10 @@ class LoopClosure:
         """Close the loop if it can be now; True once it is closed.
 
         Tried after ``min_lap_distance_m`` of travel when new big orange cones (created within
-        the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map and
-        either as many new as old are seen or the old ones are behind the car, and the new ones
-        are on the car's line of travel (``big_cone_lateral_max_m``).
+        the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map,
+        the new ones are on the car's line of travel (``big_cone_lateral_max_m``), and either
+        as many new as old are seen, or the match is unambiguous, or the old ones are behind
+        the car (no more new ones will come).
         """
         if self.closed:
             return True
@@ -69,14 +70,14 @@ class LoopClosure:
         lateral = -rel[:, 0] * math.sin(yaw) + rel[:, 1] * math.cos(yaw)
         if np.count_nonzero(np.abs(lateral) <= c.big_cone_lateral_max_m) < c.min_big_cone_pairs:
             return False
-        if new.size < old.size:
+        match = self._match_pattern(ekf, old, new)
+        if match is None:
+            return False
+        old_idx, new_idx, rival_count = match
+        if new.size < old.size and not self._unambiguous(old_idx.size, rival_count):
             ahead = ((lm[old] - ekf.xbuf[:2]) @ np.array([math.cos(yaw), math.sin(yaw)]))
             if np.any(ahead > 0.0):
                 return False
-        pairs = self._match_pattern(ekf, old, new)
-        if pairs is None:
-            return False
-        old_idx, new_idx = pairs
         self.merge(ekf, book, old_idx, new_idx)
         self.closed = True
         self.odometer_m = odometer_m
@@ -87,8 +88,15 @@ class LoopClosure:
         self.stats["loop_closures"] += 1
         return True
 
+    def _unambiguous(self, count: int, rival_count: int) -> bool:
+        """A partial pattern closes the loop before the car has passed all the old big cones
+        only if it pairs more cones than ``min_big_cone_pairs`` and than any other translation
+        does: the start's big cones stand in rows a few metres apart, and two cones of a row
+        fit the neighbouring row as well as their own."""
+        return count > self.cfg.min_big_cone_pairs and count > rival_count
+
     def _match_pattern(self, ekf: SlamEkf, old: NDArray[np.int64], new: NDArray[np.int64]
-                       ) -> tuple[NDArray[np.int64], NDArray[np.int64]] | None:
+                       ) -> tuple[NDArray[np.int64], NDArray[np.int64], int] | None:
         """Pair new with old big cones (landmark indices) under one common translation (drift).
 
         Each old-new pair within ``big_cone_search_m`` proposes a translation; it must be
@@ -96,14 +104,18 @@ class LoopClosure:
         ``closure_covariance_inflation``, gated at ``merge_gate_probability``). The hypothesis
         with the most cones consistent within ``big_cone_pattern_tolerance_m`` wins, ties broken
         by the smaller Mahalanobis drift (the big cones' pattern repeats at a few metres, the
-        drift is expected smaller). Returns landmark index arrays (old, new).
+        drift is expected smaller). Returns landmark index arrays (old, new) and the most
+        cones any translation more than ``big_cone_pattern_tolerance_m`` from the winner pairs
+        (the rival).
         """
         c = self.cfg
         lm = ekf.landmarks_view()
         old_xy, new_xy = lm[old], lm[new]
         p = ekf.P
         pd = ekf.vdim
-        best: tuple[int, float, NDArray[np.int64], NDArray[np.int64]] | None = None
+        best: tuple[int, float, NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None \
+            = None
+        hypotheses: list[tuple[int, NDArray[np.float64]]] = []
         for i in range(old.size):
             for j in range(new.size):
                 t = old_xy[i] - new_xy[j]
@@ -123,11 +135,14 @@ class LoopClosure:
                 rows, cols = linear_sum_assignment(cost)
                 good = cost[rows, cols] < BIG
                 count = int(np.count_nonzero(good))
+                hypotheses.append((count, t))
                 if best is None or count > best[0] or (count == best[0] and d2 < best[1]):
-                    best = (count, d2, old[cols[good]], new[rows[good]])
+                    best = (count, d2, old[cols[good]], new[rows[good]], t)
         if best is None or best[0] < c.min_big_cone_pairs:
             return None
-        return best[2], best[3]
+        rival = max((n for n, t in hypotheses
+                     if math.hypot(*(t - best[4])) > c.big_cone_pattern_tolerance_m), default=0)
+        return best[2], best[3], rival
 
     def merge(self, ekf: SlamEkf, book: LandmarkBook, keep: NDArray[np.int64],
               drop: NDArray[np.int64]) -> None:
