@@ -1,6 +1,7 @@
 """The car's progress while it explores a track it has not mapped yet: the distance driven,
-the laps counted where it crosses the start line (while no loop is mapped), and the way it came
-(whose gates the exploration path never takes back the other way).
+the laps counted where it crosses the start line (while no loop is mapped), the way it came
+(whose gates the exploration path never takes back the other way), and from these whether a
+loop found in the cones may be the track.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.messages import ConeColour, MapState
+from common.polyline import polyline_length
 from planner.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
@@ -141,3 +143,52 @@ class ExploredLap:
                                [0.0]])
         keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
         return trace[keep] if np.count_nonzero(keep) >= 2 else None
+
+    def loop_search_pointless(self, x_m: float, y_m: float, min_loop_m: float,
+                              mission: str) -> bool:
+        """Whether :meth:`loop_refusal` would refuse any loop the cones could make now, the car
+        at (``x_m``, ``y_m``), so the search for one (a quarter of the local planner's call) can
+        be left out: in autocross; before the car has driven ``min_loop_m - loop_unseen_max_m``
+        (a loop is at least ``min_loop_m`` long); and in the first lap while the car is further
+        from the start than ``loop_unseen_max_m`` plus the start's ``loop_through_start_m`` and
+        a tenth of the distance driven. The loop is ordered from the car and passes the start,
+        so the track ahead of the car to the start is at least that straight distance; the car
+        has driven the rest of the loop (give or take a tenth: its line is not the middle), and
+        an accepted loop leaves at most ``loop_unseen_max_m`` of it unseen."""
+        if mission == "autocross":
+            return True
+        c = self.config
+        if self.explored_m < min_loop_m - c.loop_unseen_max_m:
+            return True
+        if self.laps >= 1:
+            return False
+        reach_m = c.loop_unseen_max_m + c.loop_through_start_m + 0.1 * self.explored_m
+        return math.hypot(x_m - self._origin_xy[0], y_m - self._origin_xy[1]) > reach_m
+
+    def loop_refusal(self, points_xy_m: FloatArray, mission: str) -> str:
+        """Why a loop found in the cones (``points_xy_m`` (K, 2), closed) is not the track
+        ('' when it is): it misses the start (one lobe of a figure-like layout closed through
+        another stretch's cones); the car has not driven all but ``loop_unseen_max_m`` of it (a
+        loop through cones seen across a narrow waist cuts a bend not mapped yet); or the
+        mission is an autocross (one lap: nothing to race on the closed map, and building its
+        racing line takes the planner a second that drive's plans have not got; the lap ends
+        at the line)."""
+        c = self.config
+        if _distance_to_loop_m(points_xy_m, self._origin_xy) > c.loop_through_start_m:
+            return "loop_misses_start"
+        if self.explored_m < polyline_length(points_xy_m, True) - c.loop_unseen_max_m:
+            return "loop_ahead_unseen"
+        if mission == "autocross":
+            return "loop_in_autocross"
+        return ""
+
+
+def _distance_to_loop_m(points_xy_m: FloatArray, xy_m: tuple[float, float]) -> float:
+    """Distance (m) from ``xy_m`` to the closed polyline through ``points_xy_m`` (K, 2)."""
+    a = np.asarray(points_xy_m, np.float64)
+    b = np.roll(a, -1, axis=0)
+    ab = b - a
+    p = np.asarray(xy_m, np.float64)
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                              1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))

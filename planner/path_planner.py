@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 from common.car import CarConfig
 from common.errors import TrackError
 from common.messages import Baseframe, ConeColour, MapState, Plan, TargetStates
-from common.polyline import polyline_length
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
@@ -290,7 +289,9 @@ class PathPlanner:
         if self._explored is not None and self._explored.laps >= 1:
             # a lap counted at the start line: the loop may be as short as a lap may be
             min_loop_m = min(min_loop_m, c.lap_min_m)
-        if self._loop_search_pointless(pose.x_m, pose.y_m, min_loop_m):
+        explored = self._explored
+        if explored is not None and explored.loop_search_pointless(pose.x_m, pose.y_m,
+                                                                   min_loop_m, self.mission):
             pts, closed = np.zeros((0, 2)), False
             self.rejects["loop_search_skipped"] += 1
         else:
@@ -301,8 +302,8 @@ class PathPlanner:
                 max_step_m=c.waypoint_max_step_m, max_turn_rad=c.waypoint_max_turn_rad,
                 min_loop_length_m=min_loop_m,
             )
-        if closed and self._origin_xy is not None:
-            refusal = self._loop_refusal(pts)
+        if closed and explored is not None:
+            refusal = explored.loop_refusal(pts, self.mission)
             if refusal:
                 self.rejects[refusal] += 1
                 logger.debug("a loop in the cones, not the track (%s): still exploring", refusal)
@@ -356,47 +357,6 @@ class PathPlanner:
         self._speed_mps = self._profile(
             frame, self.known.stop_s_m(KnownPathMission.scale(frame.length_m, path)))
         return True
-
-    def _loop_search_pointless(self, x_m: float, y_m: float, min_loop_m: float) -> bool:
-        """While exploring, whether :meth:`_loop_refusal` would refuse any loop the cones could
-        make now, so the search for one (a quarter of the call) can be left out: in autocross;
-        before the car has driven ``min_loop_m - loop_unseen_max_m`` (a loop is at least
-        ``min_loop_m`` long); and in the first lap while the car is further from the start
-        than ``loop_unseen_max_m`` plus the start's ``loop_through_start_m`` and a tenth of
-        the distance driven. The loop is ordered from the car and passes the start, so the
-        track ahead of the car to the start is at least that straight distance; the car has
-        driven the rest of the loop (give or take a tenth: its line is not the middle), and
-        an accepted loop leaves at most ``loop_unseen_max_m`` of it unseen."""
-        if self._origin_xy is None or self._explored is None:
-            return False
-        if self.mission == "autocross":
-            return True
-        c = self.config
-        explored = self._explored
-        if explored.explored_m < min_loop_m - c.loop_unseen_max_m:
-            return True
-        if explored.laps >= 1:
-            return False
-        reach_m = c.loop_unseen_max_m + c.loop_through_start_m + 0.1 * explored.explored_m
-        return math.hypot(x_m - self._origin_xy[0], y_m - self._origin_xy[1]) > reach_m
-
-    def _loop_refusal(self, pts: FloatArray) -> str:
-        """Why a loop found in the cones while exploring is not the track ('' when it is): it
-        misses the start (one lobe of a figure-like layout closed through another stretch's
-        cones); the car has not driven all but ``loop_unseen_max_m`` of it (a loop through cones
-        seen across a narrow waist cuts a bend not mapped yet); or the mission is an autocross
-        (one lap: nothing to race on the closed map, and building its racing line takes the
-        planner a second that drive's plans have not got; the lap ends at the line)."""
-        assert self._origin_xy is not None
-        c = self.config
-        if _distance_to_loop_m(pts, self._origin_xy) > c.loop_through_start_m:
-            return "loop_misses_start"
-        explored_m = self._explored.explored_m if self._explored is not None else 0.0
-        if explored_m < polyline_length(pts, True) - c.loop_unseen_max_m:
-            return "loop_ahead_unseen"
-        if self.mission == "autocross":
-            return "loop_in_autocross"
-        return ""
 
     def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf) -> FloatArray:
         """The speed profile (M,) (m/s) along ``frame``; an open frame ends at standstill,
@@ -620,13 +580,3 @@ class PathPlanner:
             lap=self.lap,
         )
 
-
-def _distance_to_loop_m(points_xy_m: FloatArray, xy_m: tuple[float, float]) -> float:
-    """Distance (m) from ``xy_m`` to the closed polyline through ``points_xy_m`` (K, 2)."""
-    a = np.asarray(points_xy_m, np.float64)
-    b = np.roll(a, -1, axis=0)
-    ab = b - a
-    p = np.asarray(xy_m, np.float64)
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
-                                                              1e-12), 0.0, 1.0)
-    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))
