@@ -119,6 +119,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                          help="write a car config for `drive` pointing at the emulated ports")
     emulate.add_argument("--summary", type=Path, metavar="F", help="write the summary JSON here")
     emulate.add_argument("--workdir", type=Path, help="folder for the port links (default: temp)")
+    emulate.add_argument("--rt-priority", type=int_in(0, 99), default=0, metavar="N",
+                         help="SCHED_FIFO priority of the emulator (default 0: none); on a busy "
+                              "test machine it keeps the stand-in hardware on time")
     emulate.add_argument("--seed", type=non_negative_int,
                          help="random seed of the simulated world (>= 0)")
     emulate.set_defaults(func=_emulate)
@@ -249,6 +252,7 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
     import json
 
     from orchestrator.config import apply_mission
+    from orchestrator.live import set_realtime_priority
     from simulator.emulator import EmulatorOptions, HardwareEmulator
 
     apply_mission(config.mission, None, args.mission, args.exploration)
@@ -262,6 +266,8 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
                               exploration=config.mission.exploration,
                               ready_wait_s=config.controller.as_state.min_ready_s,
                               move_delay_s=config.controller.as_state.min_driving_before_move_s)
+    # before the emulator starts its threads: they inherit the policy
+    set_realtime_priority(args.rt_priority, "emulator")
     emulator = HardwareEmulator(config, options)
     print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
           f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "

@@ -117,11 +117,12 @@ class DriveOptions:
     """(host, port) of the Foxglove live view, served by the executive process (``--live``)."""
 
 
-def set_realtime_priority(priority: int) -> tuple[int, int] | None:
+def set_realtime_priority(priority: int, what: str = "reactive layer"
+                          ) -> tuple[int, int] | None:
     """Put the calling thread (and the threads it starts later) under SCHED_FIFO at
-    ``priority``; returns the policy and priority it had (for :func:`restore_priority`), or
-    None, with a warning, when the system does not allow it (it needs root, CAP_SYS_NICE or an
-    ``rtprio`` limit) or ``priority`` is 0.
+    ``priority`` (``what`` names it in the log); returns the policy and priority it had (for
+    :func:`restore_priority`), or None, with a warning, when the system does not allow it (it
+    needs root, CAP_SYS_NICE or an ``rtprio`` limit) or ``priority`` is 0.
 
     The control loop sleeps most of each period; at real-time priority a busy machine cannot
     delay its wake-up (the kernel still keeps 5 % of the CPU for the rest by default).
@@ -129,18 +130,18 @@ def set_realtime_priority(priority: int) -> tuple[int, int] | None:
     if priority <= 0:
         return None
     if not hasattr(os, "sched_setscheduler"):
-        log.warning("no real-time scheduling on this system: the control period depends on "
-                    "the load")
+        log.warning("no real-time scheduling on this system: the %s's timing depends on "
+                    "the load", what)
         return None
     try:
         previous = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except (OSError, ValueError) as exc:
-        log.warning("real-time priority %d refused (%s): the control period depends on the "
+        log.warning("real-time priority %d refused (%s): the %s's timing depends on the "
                     "load (run as root, with CAP_SYS_NICE, or raise the rtprio limit)",
-                    priority, exc)
+                    priority, exc, what)
         return None
-    log.info("reactive layer at SCHED_FIFO priority %d", priority)
+    log.info("%s at SCHED_FIFO priority %d", what, priority)
     return previous
 
 

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import tomli_w
 
 from common.clock import RealClock
@@ -42,6 +43,9 @@ ACTUATOR_TIMEOUT_S = 0.2
 """No actuator frame for this long: the car brakes to a stop (its own watchdog)."""
 IDLE_END_S = 2.0
 """After the handover, standing still with no actuator frames for this long ends the run."""
+LATE_STEP_S = 0.1
+"""A step later than this (s) counts in the summary's ``steps_late``: the IMU's timeout in
+drive (``sensors.imu.timeout_s``), the shortest of the critical sensors'."""
 
 
 STACK_DRIVES_MPS = 2.0
@@ -113,6 +117,8 @@ class HardwareEmulator:
         self.lidar = UdpSender("127.0.0.1", self.lidar_port)
         self.camera = UdpSender("127.0.0.1", self.camera_port)
         self.frames_in = 0
+        self.step_late_s: list[float] = []
+        """How late (s) each step's units went out against the step's schedule."""
         self.unknown_frames_in = 0
         self.last_command: ActuatorCommand | None = None
         self.last_command_wall_s = -math.inf
@@ -226,6 +232,7 @@ class HardwareEmulator:
                 else:
                     applied = self.person.command(t_s, truth, stack)
                 self._dispatch(self.world.step_to(t_s, applied))
+                self.step_late_s.append(clock.now_s() - next_s)
                 truth = self.world.truth()
                 if t_s >= options.lead_in_s:
                     self.person.observe(t_s, truth)
@@ -322,4 +329,16 @@ class HardwareEmulator:
                          else None),
             "as_transitions": [{"time_s": round(t, 3), "state": state.name}
                                for t, state in self.world.as_transitions],
+            **self._lateness(),
         }
+
+    def _lateness(self) -> dict[str, Any]:
+        """How late (ms) the steps' units went out against their schedule: p99, max, and the
+        steps later than ``LATE_STEP_S`` (the stack's shortest sensor timeout: a stand-in
+        sensor that late is the test machine's fault, not the stack's)."""
+        late = np.asarray(self.step_late_s, np.float64)
+        if late.size == 0:
+            return {"step_late_p99_ms": None, "step_late_max_ms": None, "steps_late": 0}
+        return {"step_late_p99_ms": round(float(np.percentile(late, 99)) * 1e3, 3),
+                "step_late_max_ms": round(float(late.max()) * 1e3, 3),
+                "steps_late": int(np.count_nonzero(late > LATE_STEP_S))}

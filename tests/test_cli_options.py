@@ -67,6 +67,7 @@ BAD = [
     (["record", "--out", "x.mcap", "--seconds", "-5"], "--seconds"),
     (["emulate", "--seconds", "0"], "--seconds"),
     (["emulate", "--seed", "-4"], "--seed"),
+    (["emulate", "--rt-priority", "100"], "--rt-priority"),
     (["render", "x.mcap", "--out", "d", "--fps", "0"], "--fps"),
     (["render", "x.mcap", "--out", "d", "--size", "0x720"], "--size"),
     (["render", "x.mcap", "--out", "d", "--size", "big"], "--size"),

@@ -192,6 +192,9 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     # mission, pose, fresh sensors: READY (no go in these 6 s)
     assert "READY" in [t["state"] for t in served["as_transitions"]], served["as_transitions"]
     assert served["can_bad_lines"] == 0
+    # its own lateness is measured (a step's units go out after the step's time, never before)
+    assert 0.0 < served["step_late_p99_ms"] <= served["step_late_max_ms"]
+    assert 0 <= served["steps_late"] < served["actuator_frames_in"]
 
 
 def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
