@@ -293,7 +293,6 @@ class PathPlanner:
         if explored is not None and explored.loop_search_pointless(pose.x_m, pose.y_m,
                                                                    min_loop_m, self.mission):
             pts, closed = np.zeros((0, 2)), False
-            self.rejects["loop_search_skipped"] += 1
         else:
             pts, closed = waypoints_from_cones(
                 map_state.cones.xy_m, map_state.cones.colour, (pose.x_m, pose.y_m),
