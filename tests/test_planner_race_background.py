@@ -3,8 +3,10 @@ meanwhile and swaps the racing line in when it is done, laps carried over."""
 
 from __future__ import annotations
 
+import copy
 import math
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -36,11 +38,26 @@ def _state(track: object, t_s: float, i: int) -> MapState:
     return MapState(t_s, pose, cones, loop_closed=True)
 
 
-def test_the_racing_line_is_swapped_in_when_built_and_the_laps_carry_on() -> None:
-    inline, track = _planner(background=False)
-    inline.start_autonomous(_state(track, 0.0, 0))
-    assert inline.frame is not None
-    expected = inline.frame
+@pytest.fixture(scope="module")
+def inline_race() -> tuple[Any, Any, Any]:
+    """gen:2, its racing line built in line by a planner's start (the frame), and the racing
+    line that line guides (what the background worker hands over): built once for the module,
+    as each build takes the planner many seconds."""
+    from planner.race_job import build_race_line
+
+    planner, track = _planner(background=False)
+    planner.start_autonomous(_state(track, 0.0, 0))
+    guide = planner.frame
+    assert guide is not None
+    cones = cone_map(track.cones_xy_m, track.colours)  # type: ignore[attr-defined]
+    line = build_race_line(cones.xy_m, cones.colour, guide.xy_m, planner.config, planner.car,
+                           planner.limits)
+    return track, guide, line
+
+
+def test_the_racing_line_is_swapped_in_when_built_and_the_laps_carry_on(
+        inline_race: tuple[Any, Any, Any]) -> None:
+    track, expected, _ = inline_race
 
     planner, _ = _planner(background=True)
     try:
@@ -98,23 +115,17 @@ class _ReadyAt:
 
 
 @pytest.mark.parametrize("where", [0.3, 0.98, 1.02])
-def test_a_lap_is_counted_once_wherever_the_swap_falls(where: float) -> None:
+def test_a_lap_is_counted_once_wherever_the_swap_falls(
+        where: float, inline_race: tuple[Any, Any, Any]) -> None:
     """The racing line's start may lie a little before or after the centre line's: a swap just
     before or just after the start neither loses the lap nor counts it twice."""
-    from planner.race_job import build_race_line
-
-    planner, track = _planner(background=False)
-    planner.start_autonomous(_state(track, 0.0, 0))
-    guide = planner.frame
-    assert guide is not None
-    n = len(track.centreline_xy_m)
+    track, _, built = inline_race
+    line = copy.deepcopy(built)  # the planner takes it over
+    n = len(track.centreline_xy_m)  # type: ignore[attr-defined]
     planner2, _ = _planner(background=False)
     planner2.config.racing_line = False  # the centre line first, as drive drives it
     planner2.start_autonomous(_state(track, 0.0, 0))
     planner2.config.racing_line = True
-    cones = cone_map(track.cones_xy_m, track.colours)  # type: ignore[attr-defined]
-    line = build_race_line(cones.xy_m, cones.colour, guide.xy_m, planner2.config, planner2.car,
-                           planner2.limits)
     planner2._race_worker = _ReadyAt(line, int(where * n))  # type: ignore[assignment]
     centre_line = planner2.frame
     laps = []
