@@ -255,7 +255,11 @@ class SlamConfig:
     big_cone_search_m: float = 6.0
     """Largest drift (m) at which old and new big orange cones are still paired."""
     big_cone_pattern_tolerance_m: float = 0.6
+    """New big cones within this (m) of an old one under a shift pair with it."""
     min_big_cone_pairs: int = 2
+    """Fewest big cone pairs that close the loop. While fewer new than old big cones are mapped
+    and some old ones are still ahead of the car, the match must pair more than this and more
+    than any other shift (the start's rows of big cones repeat a few metres apart)."""
     big_cone_lateral_max_m: float = 4.0
     """The new big cones close the loop only when at least ``min_big_cone_pairs`` of them lie
     within this distance (m) of the car's line of travel: the car is arriving at the start line,
