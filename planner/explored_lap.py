@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.messages import ConeColour, MapState
-from common.polyline import polyline_length
+from common.polyline import nearest_on_polyline, polyline_length
 from planner.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
@@ -174,7 +174,8 @@ class ExploredLap:
         racing line takes the planner a second that drive's plans have not got; the lap ends
         at the line)."""
         c = self.config
-        if _distance_to_loop_m(points_xy_m, self._origin_xy) > c.loop_through_start_m:
+        to_start_m = nearest_on_polyline(np.asarray([self._origin_xy]), points_xy_m, True)[0][0]
+        if to_start_m > c.loop_through_start_m:
             return "loop_misses_start"
         if self.explored_m < polyline_length(points_xy_m, True) - c.loop_unseen_max_m:
             return "loop_ahead_unseen"
@@ -182,13 +183,3 @@ class ExploredLap:
             return "loop_in_autocross"
         return ""
 
-
-def _distance_to_loop_m(points_xy_m: FloatArray, xy_m: tuple[float, float]) -> float:
-    """Distance (m) from ``xy_m`` to the closed polyline through ``points_xy_m`` (K, 2)."""
-    a = np.asarray(points_xy_m, np.float64)
-    b = np.roll(a, -1, axis=0)
-    ab = b - a
-    p = np.asarray(xy_m, np.float64)
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
-                                                              1e-12), 0.0, 1.0)
-    return float(np.min(np.hypot(*(a + t[:, None] * ab - p).T)))

@@ -463,8 +463,7 @@ class PathPlanner:
             self.rejects["non_finite_pose"] += 1
             logger.warning("plan: non-finite pose rejected")
             return self._empty_plan(now_s)
-        if self._origin_xy is not None:
-            self._count_exploration(map_state)
+        self._count_exploration(map_state)
         if self._race_worker is not None and self._race_worker.pending:
             self._take_race_line(map_state)
         if self.known is not None:
