@@ -97,6 +97,8 @@ class Handover:
         """When the person was ready to press go but the car was not READY long enough."""
         self.autonomous_crossings_s: list[float] = []
         self._still_since_s: float | None = None
+        self._segment_hint: int | None = None
+        """The centreline segment the car was last found on: the next search starts there."""
 
     def command(self, t_s: float, truth: GroundTruth,
                 stack_command: ActuatorCommand | None) -> ActuatorCommand | None:
@@ -113,7 +115,8 @@ class Handover:
 
     def observe(self, t_s: float, truth: GroundTruth) -> bool:
         """Update the phase and the lap timer from the truth; True on a start-line crossing."""
-        progress_m = self.track.progress_m(truth.x_m, truth.y_m)
+        progress_m, _, self._segment_hint = self.track.locate(truth.x_m, truth.y_m,
+                                                              self._segment_hint)
         # laps are of a loop (the acceleration straight and the skidpad's path are timed on
         # their lines: simulator/mission_timing.py)
         loop = getattr(self.track, "is_loop", True)
