@@ -161,10 +161,11 @@ def merge_health(now_s: float, own: Health, remote: Health | None,
     """One :class:`Health` at ``now_s`` from this process's sources (``own``: CAN and RES)
     and the executive process's (``remote``, measured at ``remote.timestamp_s``).
 
-    The remote sources' ages are advanced to ``now_s``. A source is stale when its age at the
-    report exceeded ``timeouts_s[source]`` (the sensor is silent), or its age now exceeds it
-    by more than ``report_grace_s`` (the report itself is late: a busy executive process is
-    given that long before its sensors count as lost). A remote source with no report yet is
+    The remote sources' ages are advanced to ``now_s``. A source is stale when the report says
+    so (its receiver saw the sensor silent: :meth:`sensors.manager.SensorManager.health`), or
+    its age now exceeds ``timeouts_s[source]`` by more than ``report_grace_s`` (the report
+    itself is late: a busy executive process is given that long before its sensors count as
+    lost). A remote source with no report yet is
     stale. Sources come in the Sensor Manager's order (``res`` after ``can``).
     """
     by_source: dict[str, SourceHealth] = {s.source: s for s in own.sources}
@@ -176,7 +177,7 @@ def merge_health(now_s: float, own: Health, remote: Health | None,
             by_source[source] = SourceHealth(now_s, source, False, 0.0, math.inf, 0, True)
             continue
         age_s = s.age_s + lag_s
-        stale = s.age_s > timeouts_s[source] or age_s > timeouts_s[source] + report_grace_s
+        stale = s.stale or age_s > timeouts_s[source] + report_grace_s
         by_source[source] = SourceHealth(now_s, source, s.alive, s.rate_hz, age_s, s.errors,
                                          stale, s.rejects)
     order = [name for source in SOURCES for name in

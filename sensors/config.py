@@ -25,7 +25,8 @@ class ImuConfig:
     port: str = "/dev/ttyUSB0"
     baudrate: int = 921600
     timeout_s: float = 0.1
-    read_timeout_s: float = 0.05
+    read_timeout_s: float = 0.02
+    """Longest blocking read (s): a sensor fallen silent is noticed at most this late."""
 
 
 @dataclass(slots=True)
@@ -137,3 +138,8 @@ class SensorsConfig:
     reconnect_max_s: float = 1.0
     rate_window_s: float = 2.0
     """Window (s) over which health() reports each source's rate."""
+    reader_late_grace_s: float = 0.4
+    """Live: how long (s) past a source's ``timeout_s`` its receiver thread may be late (not
+    back from its transport, as in a busy process) before the source counts as stale though
+    the thread has not seen the sensor fall silent. A silence the thread has seen counts at
+    once; within the grace the map and the pose are late, which the controller rides out."""

@@ -225,24 +225,44 @@ class SensorManager:
         yet). With CAN enabled, ``res`` reports the RES_STATE frames alone (stale after
         ``sensors.can.res_timeout_s``), since a lost RES must stop the car even while the wheel
         speeds keep coming.
+
+        Live, a receiver thread must also have seen the silence: a thread that has not come back
+        from its transport since the last reading (a busy process delays it, as it delays the
+        map and the plan) says nothing about the sensor. Its source turns stale only once the
+        silence it saw exceeds ``timeout_s``, or the reading's age exceeds ``timeout_s`` plus
+        ``reader_late_grace_s`` (a stuck thread still ends in a stop).
         """
         sc = self.config
         out: list[SourceHealth] = []
         for source, intake in self.intakes.items():
             receiver = self.receivers.get(source)
+            awake_s: float | None = None
             if receiver is not None:
                 alive = receiver.is_alive() and receiver.connected.is_set()
+                awake_s = receiver.awake_s  # before the figures: a later reading only helps
             else:
                 alive = intake.raw_count > 0
             rate, age, errors, rejects = intake.health_figures(now_s)
             timeout_s = getattr(sc, source).timeout_s
-            out.append(SourceHealth(now_s, source, alive, rate, age, errors, age > timeout_s,
-                                    rejects))
+            out.append(SourceHealth(now_s, source, alive, rate, age, errors,
+                                    self._stale(now_s, age, timeout_s, awake_s), rejects))
             if source == "can":
                 rate, age, _, _ = intake.health_figures(now_s, "res")
                 out.append(SourceHealth(now_s, "res", alive, rate, age, 0,
-                                        age > sc.can.res_timeout_s, ()))
+                                        self._stale(now_s, age, sc.can.res_timeout_s, awake_s),
+                                        ()))
         return Health(now_s, tuple(out))
+
+    def _stale(self, now_s: float, age_s: float, timeout_s: float,
+               awake_s: float | None) -> bool:
+        """Stale, from the last reading's age (s) and when the receiver thread was last awake
+        (None: parsed in the caller's thread, which is never behind its own sensors)."""
+        if age_s <= timeout_s:
+            return False
+        if awake_s is None:
+            return True
+        silence_seen_s = awake_s - (now_s - age_s)
+        return silence_seen_s > timeout_s or age_s > timeout_s + self.config.reader_late_grace_s
 
     def send_command(self, cmd: ActuatorCommand) -> CanFrame:
         """Encode ``cmd`` as the DBC's AS_COMMAND frame and, when live, send it on the CAN bus.

@@ -24,6 +24,7 @@ import bisect
 import collections
 import itertools
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -372,6 +373,11 @@ class Receiver(abc.ABC):
         self._thread: threading.Thread | None = None
         self._opened_once = False
         self._log = RateLimitedLog(logger, burst=3, every=100)
+        self.awake_s = -math.inf
+        """When (s, the clock's) this thread last came back from the transport with all it had
+        delivered taken in: the sensor was silent from its last unit up to then at least. A
+        busy process delays its reader; the time since ``awake_s`` is the reader's own delay,
+        not the sensor's silence (:meth:`sensors.manager.SensorManager.health`)."""
 
     # -- the transport (subclasses) -------------------------------------------------------
 
@@ -475,6 +481,7 @@ class Receiver(abc.ABC):
             while not self._stop.is_set():
                 if not self.connected.is_set():
                     if not self._try_open():
+                        self.awake_s = self.clock.now_s()
                         self._stop.wait(backoff)
                         backoff = min(backoff * 2.0, self.reconnect_max_s)
                         continue
@@ -484,13 +491,16 @@ class Receiver(abc.ABC):
                     self.intake.count_error("read", "%s failed: %r; reopening", self.describe(),
                                             exc)
                     self._safe_close()
+                    self.awake_s = self.clock.now_s()
                     self._stop.wait(backoff)
                     backoff = min(backoff * 2.0, self.reconnect_max_s)
                     continue
+                returned_s = self.clock.now_s()
                 if units:
                     backoff = self.reconnect_min_s
                     for unit in units:
                         self.intake.ingest(unit)
+                self.awake_s = returned_s  # only now: what the read returned is taken in
         except BaseException:  # never let anything escape the thread unreported
             self.intake.count_error("thread", "receiver thread crashed", exc_info=True)
         finally:

@@ -84,8 +84,11 @@ def test_blocking_sends_from_several_threads_do_not_interleave() -> None:
         assert [i for g, i, _ in got if g == tag] == list(range(200))
 
 
-def _source(t_s: float, name: str, age_s: float) -> SourceHealth:
-    return SourceHealth(t_s, name, True, 10.0, age_s, 0, False)
+def _source(t_s: float, name: str, age_s: float, stale: bool | None = None) -> SourceHealth:
+    """A source as the reporting process judged it (by default: stale past its timeout)."""
+    if stale is None:
+        stale = age_s > TIMEOUTS_S.get(name, math.inf)
+    return SourceHealth(t_s, name, True, 10.0, age_s, 0, stale)
 
 
 def test_merged_health_ages_the_remote_report_to_now() -> None:
@@ -115,6 +118,18 @@ def test_a_report_that_a_sensor_is_silent_counts_at_once_whatever_the_grace() ->
     remote = Health(10.0, (_source(10.0, "imu", 0.5), _source(10.0, "lidar", 0.05)))
     merged = merge_health(10.0, own, remote, ("imu", "lidar"), TIMEOUTS_S, report_grace_s=0.4)
     assert merged.stale_sources() == ("imu",)
+
+
+def test_a_report_of_a_late_reader_is_not_a_silent_sensor_within_the_grace() -> None:
+    # The executive's IMU reader was itself late (its process busy): its last reading is
+    # 0.15 s old but the report does not call the IMU stale (the reader did not see it silent).
+    own = Health(10.0, (_source(10.0, "can", 0.004), _source(10.0, "res", 0.05)))
+    remote = Health(10.0, (_source(10.0, "imu", 0.15, stale=False),))
+    merged = merge_health(10.0, own, remote, ("imu",), TIMEOUTS_S, report_grace_s=0.4)
+    assert merged.stale_sources() == ()
+    # ... but the age still counts against the report's grace
+    later = merge_health(10.4, own, remote, ("imu",), TIMEOUTS_S, report_grace_s=0.4)
+    assert later.stale_sources() == ("imu",)
 
 
 def test_merged_health_before_any_report_is_stale() -> None:
