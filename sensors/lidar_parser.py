@@ -50,47 +50,53 @@ class LidarParser:
         self.rejects: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()
         self.last_sweep: LidarPoints | None = None
-        self.guard: ModelGuard[tuple[float, bytes]] = ModelGuard(self.source)
+        self.guard: ModelGuard[tuple[float, bytes, tuple[int, ...]]] = ModelGuard(self.source)
+        """Items: a packet's arrival time, payload and :func:`check_packet` fields."""
         self.on_packet: Callable[[float, bytes], None] | None = None
 
     def feed(self, timestamp_s: float, payload: bytes) -> list[LidarCones]:
         """Take one datagram; return the cones of the sweeps it completes (usually none)."""
         payload = bytes(payload)
         try:
-            check_packet(payload)
+            fields = check_packet(payload)
         except DecodeError as exc:
             reason = reject_reason(exc)
             self.rejects[reason] += 1
             if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
                 log.warning("lidar: rejected datagram (%s; %d so far)", exc, self.rejects[reason])
             return []
-        return self._assemble(self._admit(lambda: self.guard.admit((timestamp_s, payload),
-                                                                   payload)))
+        guard = self.guard
+        refused = guard.refused_count
+        admitted = guard.admit((timestamp_s, payload, fields), payload)
+        if guard.refused_count != refused:
+            self.rejects["wrong_model"] += guard.refused_count - refused
+        return self._assemble(admitted) if admitted else []
 
     def flush(self) -> list[LidarCones]:
         """Detect cones in the partial sweep collected so far (end of a file or a stream)."""
         out = self._assemble(self._admit(self.guard.flush))
         return out + [self._detect(s) for s in self.assembler.flush()]
 
-    def _admit(self, decide: Callable[[], list[tuple[float, bytes]]]
-               ) -> list[tuple[float, bytes]]:
+    def _admit(self, decide: Callable[[], list[tuple[float, bytes, tuple[int, ...]]]]
+               ) -> list[tuple[float, bytes, tuple[int, ...]]]:
         """Run the model guard; count what it refused."""
-        refused = sum(self.guard.refused.values())
+        refused = self.guard.refused_count
         admitted = decide()
-        refused = sum(self.guard.refused.values()) - refused
+        refused = self.guard.refused_count - refused
         if refused:
             self.rejects["wrong_model"] += refused
         return admitted
 
-    def _assemble(self, admitted: list[tuple[float, bytes]]) -> list[LidarCones]:
+    def _assemble(self, admitted: list[tuple[float, bytes, tuple[int, ...]]]
+                  ) -> list[LidarCones]:
         out: list[LidarCones] = []
-        for item in admitted:
-            timestamp_s, payload = item
+        for timestamp_s, payload, fields in admitted:
             if self.on_packet is not None:
                 self.on_packet(timestamp_s, payload)
-            sweeps = self.assembler.add(timestamp_s, payload)
+            sweeps = self.assembler.add_checked(timestamp_s, payload, fields)
             self.counts["packets"] += 1
-            out.extend(self._detect(s) for s in sweeps)
+            if sweeps:
+                out.extend(self._detect(s) for s in sweeps)
         return out
 
     def _detect(self, sweep: LidarPoints) -> LidarCones:

@@ -326,7 +326,12 @@ class SweepAssembler:
 
     def add(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
         """Add one data packet; return the sweeps it completes."""
-        fields = check_packet(payload)
+        return self.add_checked(timestamp_s, payload, check_packet(payload))
+
+    def add_checked(self, timestamp_s: float, payload: bytes,
+                    fields: tuple[int, ...]) -> list[LidarPoints]:
+        """:meth:`add` for a packet that passed :func:`check_packet`, ``fields`` what it
+        returned (the 12 block azimuths and the timestamp)."""
         done: list[LidarPoints] = []
         if (self._last_stamp is not None
                 and (timestamp_s - self._last_stamp > self.max_gap_s

@@ -94,12 +94,28 @@ def _period_us(model: str, mode: int) -> float:
     return period / 2.0 if mode == RETURN_MODE_DUAL else period
 
 
+def _periods(mode: int) -> tuple[tuple[str, float, float], ...]:
+    """(model, period (us), longest interval classified (us)) for return ``mode``, VLP-16
+    first (it wins a tie: a lost VLP-32C packet)."""
+    return tuple((model, _period_us(model, mode), (MAX_PERIODS + 0.5) * _period_us(model, mode))
+                 for model in PACKET_PERIOD_US)
+
+
+_PERIODS = {mode: _periods(mode) for mode in (RETURN_MODE_STRONGEST, RETURN_MODE_LAST,
+                                              RETURN_MODE_DUAL)}
+""":func:`_periods` of each return mode, worked out once (timing_model runs per packet)."""
+
+
 def timing_model(interval_us: int, mode: int) -> str | None:
     """The model whose packet timing ``interval_us`` (device time between successive packets)
     shows for return ``mode``, or None when it shows none (too long, zero, negative)."""
-    for model in PACKET_PERIOD_US:  # VLP-16 first: it wins a tie (a lost VLP-32C packet)
-        period = _period_us(model, mode)
-        if interval_us <= 0 or interval_us > (MAX_PERIODS + 0.5) * period:
+    if interval_us <= 0:
+        return None
+    periods = _PERIODS.get(mode)
+    if periods is None:
+        periods = _periods(mode)
+    for model, period, longest in periods:
+        if interval_us > longest:
             continue
         k = max(1, round(interval_us / period))
         if abs(interval_us - k * period) <= TIMING_TOLERANCE_US:
@@ -119,10 +135,15 @@ class ModelGuard(Generic[T]):
         self.source = source
         self.refused: Counter[str] = Counter()
         """Packets refused, by model (``"HDL-32E"``, ``"unknown id 0x00"``, ...)."""
+        self.refused_count = 0
+        """Packets refused in all (the sum of :attr:`refused`)."""
         self.verdict: Verdict | None = None
         """The stream's last verdict from the timing (None: none yet)."""
         self._last_us: int | None = None
         self._held: tuple[T, bytes] | None = None
+        self._verdicts: dict[tuple[str, int, int], Verdict] = {}
+        """Verdicts from the timing by (model, product id, interval): the same few recur for
+        every packet of a stream, so each is made once."""
 
     def reset(self) -> None:
         """Forget the stream (a new sensor, a reconnection); a held packet is dropped."""
@@ -148,15 +169,25 @@ class ModelGuard(Generic[T]):
             return self._release(None)
         timed = timing_model(interval, mode) if interval is not None else None
         if timed is not None:
-            self.verdict = Verdict(timed, f"product id 0x{product:02X} and {interval} us "
-                                          "between packets")
-        out = self._release(self.verdict)
+            assert interval is not None
+            key = (timed, product, interval)
+            verdict = self._verdicts.get(key)
+            if verdict is None:
+                verdict = Verdict(timed, f"product id 0x{product:02X} and {interval} us "
+                                         "between packets")
+                if len(self._verdicts) < 1024:
+                    self._verdicts[key] = verdict
+            self.verdict = verdict
+        out = self._release(self.verdict) if self._held is not None else []
         verdict = self.verdict
         if verdict is None:
             self._held = (item, payload)  # no timing yet: wait for the next packet
             return out
-        if verdict.accepted:
-            return [*out, item]
+        if verdict.model == VLP16:
+            if out:
+                out.append(item)
+                return out
+            return [item]
         self._refuse(verdict)
         return out
 
@@ -180,6 +211,7 @@ class ModelGuard(Generic[T]):
 
     def _refuse(self, verdict: Verdict) -> None:
         self.refused[verdict.model] += 1
+        self.refused_count += 1
         n = self.refused[verdict.model]
         if n == 1 or n % LOG_EVERY == 0:
             log.warning("%s: refusing packets from a Velodyne %s (%s): only a VLP-16 is "
