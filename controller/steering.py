@@ -7,7 +7,8 @@ the pose is the rear axle (the vehicle origin) in the world frame; ``path`` a :c
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from bisect import bisect_right
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,6 +16,28 @@ from numpy.typing import NDArray
 from common.messages import TargetStates
 
 FloatArray = NDArray[np.float64]
+
+
+def _interp(x: float, xp: list[float], fp: list[float]) -> float:
+    """``float(np.interp(x, xp, fp))`` for a scalar ``x`` on Python floats: the same steps
+    (the segment with xp[j] <= x < xp[j + 1], its slope, held beyond the ends), the same bits,
+    without numpy's per-call overhead. ``xp`` non-decreasing, not empty."""
+    if x != x:  # NaN
+        return x
+    if x < xp[0]:
+        return fp[0]
+    if x > xp[-1]:
+        return fp[-1]
+    j = bisect_right(xp, x) - 1
+    if j == len(xp) - 1 or xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    y = slope * (x - xp[j]) + fp[j]
+    if y != y:  # as numpy: from the other end, else the held value of a flat segment
+        y = slope * (x - xp[j + 1]) + fp[j + 1]
+        if y != y and fp[j] == fp[j + 1]:
+            y = fp[j]
+    return y
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,6 +50,25 @@ class PathRef:
     curvature_1pm: FloatArray
     speed_mps: FloatArray
     s_m: FloatArray
+    # the same samples as Python floats (a control tick reads a few of them: numpy's per-call
+    # overhead would dominate), the heading unwrapped once per path
+    _x: list[float] = field(init=False, repr=False, compare=False)
+    _y: list[float] = field(init=False, repr=False, compare=False)
+    _s: list[float] = field(init=False, repr=False, compare=False)
+    _yaw_unwrapped: list[float] = field(init=False, repr=False, compare=False)
+    _kappa: list[float] = field(init=False, repr=False, compare=False)
+    _speed: list[float] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        def floats(values: FloatArray) -> list[float]:
+            return [float(v) for v in np.asarray(values, np.float64).ravel()]
+
+        object.__setattr__(self, "_x", floats(self.x_m))
+        object.__setattr__(self, "_y", floats(self.y_m))
+        object.__setattr__(self, "_s", floats(self.s_m))
+        object.__setattr__(self, "_yaw_unwrapped", floats(np.unwrap(self.yaw_rad)))
+        object.__setattr__(self, "_kappa", floats(self.curvature_1pm))
+        object.__setattr__(self, "_speed", floats(self.speed_mps))
 
     @classmethod
     def from_targets(cls, targets: TargetStates) -> PathRef:
@@ -49,23 +91,24 @@ class PathRef:
         dx = self.x_m - x_m
         dy = self.y_m - y_m
         i = int(np.argmin(dx * dx + dy * dy))
-        best_s, best_d2, best_e = float(self.s_m[i]), math.inf, 0.0
+        xs, ys, ss = self._x, self._y, self._s
+        best_s, best_d2, best_e = ss[i], math.inf, 0.0
         for a in (i - 1, i):
             b = a + 1
-            if a < 0 or b >= len(self):
+            if a < 0 or b >= len(xs):
                 continue
-            vx, vy = self.x_m[b] - self.x_m[a], self.y_m[b] - self.y_m[a]
+            vx, vy = xs[b] - xs[a], ys[b] - ys[a]
             seg2 = vx * vx + vy * vy
             if seg2 <= 0.0:
                 continue
-            t = ((x_m - self.x_m[a]) * vx + (y_m - self.y_m[a]) * vy) / seg2
+            t = ((x_m - xs[a]) * vx + (y_m - ys[a]) * vy) / seg2
             t = min(max(t, 0.0), 1.0)
-            px, py = self.x_m[a] + t * vx, self.y_m[a] + t * vy
+            px, py = xs[a] + t * vx, ys[a] + t * vy
             d2 = (x_m - px) ** 2 + (y_m - py) ** 2
             if d2 < best_d2:
                 # positive: the path is to the left of the direction of travel from the point
-                side = vx * (y_m - self.y_m[a]) - vy * (x_m - self.x_m[a])
-                best_s = float(self.s_m[a] + t * math.sqrt(seg2))
+                side = vx * (y_m - ys[a]) - vy * (x_m - xs[a])
+                best_s = ss[a] + t * math.sqrt(seg2)
                 best_d2 = d2
                 best_e = -math.copysign(math.sqrt(d2), side)
         if not math.isfinite(best_d2):
@@ -75,21 +118,22 @@ class PathRef:
     def at(self, s_m: float) -> tuple[float, float, float, float]:
         """Position, heading and curvature at arc length ``s_m``; beyond the end the path goes
         straight on along its last heading."""
-        end = float(self.s_m[-1])
-        if s_m <= end or len(self) < 2:
-            x = float(np.interp(s_m, self.s_m, self.x_m))
-            y = float(np.interp(s_m, self.s_m, self.y_m))
-            yaw = float(np.interp(s_m, self.s_m, np.unwrap(self.yaw_rad)))
-            k = float(np.interp(s_m, self.s_m, self.curvature_1pm))
+        ss = self._s
+        end = ss[-1]
+        if s_m <= end or len(ss) < 2:
+            x = _interp(s_m, ss, self._x)
+            y = _interp(s_m, ss, self._y)
+            yaw = _interp(s_m, ss, self._yaw_unwrapped)
+            k = _interp(s_m, ss, self._kappa)
             return x, y, math.remainder(yaw, 2.0 * math.pi), k
         yaw = float(self.yaw_rad[-1])
         extra = s_m - end
-        return (float(self.x_m[-1]) + extra * math.cos(yaw),
-                float(self.y_m[-1]) + extra * math.sin(yaw), yaw, 0.0)
+        return (self._x[-1] + extra * math.cos(yaw),
+                self._y[-1] + extra * math.sin(yaw), yaw, 0.0)
 
     def speed_at(self, s_m: float) -> float:
         """Target speed (m/s) at arc length ``s_m`` (held beyond the ends)."""
-        return float(np.interp(s_m, self.s_m, self.speed_mps))
+        return _interp(s_m, self._s, self._speed)
 
 
 class SteeringLaw:

@@ -54,3 +54,16 @@ def test_path_nearest_and_at() -> None:
     assert s == pytest.approx(5.2) and e == pytest.approx(0.4)  # path to the left: positive
     x, y, yaw, k = path.at(25.0)  # beyond the end: straight on
     assert x == pytest.approx(25.0) and y == 0.0 and yaw == 0.0 and k == 0.0
+
+
+def test_path_interp_is_numpys_bit_for_bit() -> None:
+    from controller.steering import _interp
+
+    rng = np.random.default_rng(5)
+    xp = np.cumsum(rng.random(60) * (rng.random(60) > 0.2))  # with repeated knots
+    fp = rng.standard_normal(60) * 100.0
+    xs = [*rng.uniform(xp[0] - 1.0, xp[-1] + 1.0, 500).tolist(), *xp.tolist(), math.nan]
+    for x in xs:
+        want = float(np.interp(x, xp, fp))
+        got = _interp(x, xp.tolist(), fp.tolist())
+        assert got == want or (math.isnan(got) and math.isnan(want))
