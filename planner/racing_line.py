@@ -97,6 +97,78 @@ def _jacobian(centre: FloatArray, normals: FloatArray, alpha: FloatArray, closed
                       shape=(n, n))
 
 
+def _menger_xy(x: FloatArray, y: FloatArray, closed: bool) -> FloatArray:
+    """:func:`planner.track_model.menger_curvature` of the polyline (x, y) (N,) each, bit for
+    bit (the same operations on each element), with the coordinates apart and each segment's
+    difference and length computed once (point i's segment in is point i-1's segment out)."""
+    ex = np.roll(x, -1) - x  # c - b at each point: point i to i+1
+    ey = np.roll(y, -1) - y
+    bx, by = np.roll(ex, 1), np.roll(ey, 1)  # b - a: point i-1 to i
+    acx = np.roll(x, -1) - np.roll(x, 1)
+    acy = np.roll(y, -1) - np.roll(y, 1)
+    cross = bx * ey - by * ex
+    out_len = np.sqrt(ex * ex + ey * ey)
+    denom = np.roll(out_len, 1) * out_len * np.sqrt(acx * acx + acy * acy)
+    kappa: FloatArray = 2.0 * cross / np.maximum(denom, 1e-12)
+    if not closed and len(x) >= 3:
+        kappa[0], kappa[-1] = kappa[1], kappa[-2]
+    return kappa
+
+
+class _CurvatureGradient:
+    """sum(kappa^2) and its gradient for offsets alpha along ``normals``: what
+    ``menger_curvature`` and ``_jacobian(...).T @ (2 kappa)`` give, bit for bit, without
+    building a sparse matrix per evaluation.
+
+    The Jacobian's structure (which colour moves which column, the rows of each column) depends
+    only on N, so it is found once. Column j of the Jacobian holds d kappa_i / d alpha_j for
+    i in j-1, j, j+1 (cyclic when closed); the sparse product sums those terms in increasing i,
+    from 0, and so does :meth:`gradient`. Needs N >= 4 (fewer: use ``_jacobian``)."""
+
+    def __init__(self, centre: FloatArray, normals: FloatArray, closed: bool,
+                 step: float = 1e-4) -> None:
+        n = len(centre)
+        self.cx, self.cy = np.ascontiguousarray(centre[:, 0]), np.ascontiguousarray(centre[:, 1])
+        self.nx, self.ny = np.ascontiguousarray(normals[:, 0]), np.ascontiguousarray(normals[:, 1])
+        self.closed = closed
+        self.step = step
+        colour = _colours(n)
+        self.bumps = [step * (colour == c) for c in range(int(colour.max()) + 1)]
+        idx = np.arange(n)
+        rows = np.stack([idx - 1, idx, idx + 1], axis=1)  # rows of column j
+        if closed:
+            rows = np.sort(np.mod(rows, n), axis=1)
+            self.full = np.ones(n, bool)
+        else:
+            # the end columns have two rows: the missing one's slot repeats a valid row and is
+            # left out of the sum
+            self.full = (idx > 0) & (idx < n - 1)
+            rows = np.where(rows < 0, 0, rows)
+            rows = np.where(rows > n - 1, n - 1, rows)
+            rows[0] = [0, 1, 1]
+        self.rows = rows
+        self.colour = colour
+
+    def line(self, alpha: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The line's x and y (N,) each for offsets ``alpha``."""
+        return self.cx + alpha * self.nx, self.cy + alpha * self.ny
+
+    def gradient(self, alpha: FloatArray, kappa: FloatArray) -> FloatArray:
+        """d sum(kappa^2) / d alpha (N,), ``kappa`` the line's curvature at ``alpha``."""
+        dks = []
+        for bump in self.bumps:
+            trial = alpha + bump
+            x, y = self.line(trial)
+            dks.append((_menger_xy(x, y, self.closed) - kappa) / self.step)
+        jac = np.stack(dks)[self.colour[:, None], self.rows]  # J[rows[j, k], j]
+        v = 2.0 * kappa
+        terms = jac * v[self.rows]
+        grad: FloatArray = 0.0 + terms[:, 0]
+        grad = grad + terms[:, 1]
+        grad[self.full] = grad[self.full] + terms[self.full, 2]
+        return grad
+
+
 def _length_gradient(line: FloatArray, normals: FloatArray, closed: bool) -> FloatArray:
     """d (polyline length) / d alpha_j (N,) for a line moved along ``normals``."""
     seg = np.roll(line, -1, axis=0) - line
@@ -142,13 +214,19 @@ def min_curvature_offsets(
     k_scale = max(float(np.sum(k0**2)), 1e-9)
     l_scale = max(_polyline_length(centre_xy_m, closed), 1e-9)
 
+    fast = _CurvatureGradient(centre_xy_m, normals, closed) if len(lo) >= 4 else None
+
     def cost(alpha: FloatArray) -> tuple[float, FloatArray]:
-        line = centre_xy_m + alpha[:, None] * normals
-        kappa = menger_curvature(line, closed)
-        jac = _jacobian(centre_xy_m, normals, alpha, closed).tocsr()
+        if fast is not None:
+            kappa = _menger_xy(*fast.line(alpha), closed)
+            grad = fast.gradient(alpha, kappa) / k_scale
+        else:
+            kappa = menger_curvature(centre_xy_m + alpha[:, None] * normals, closed)
+            jac = _jacobian(centre_xy_m, normals, alpha, closed).tocsr()
+            grad = np.asarray(jac.T @ (2.0 * kappa), np.float64) / k_scale
         value = float(np.sum(kappa**2)) / k_scale
-        grad = np.asarray(jac.T @ (2.0 * kappa), np.float64) / k_scale
         if length_weight > 0.0:
+            line = centre_xy_m + alpha[:, None] * normals
             value += length_weight * _polyline_length(line, closed) / l_scale
             grad += length_weight * _length_gradient(line, normals, closed) / l_scale
         return value, grad

@@ -222,3 +222,22 @@ def test_a_corridor_with_only_a_cones_radius_to_spare_is_crawled() -> None:
     walls[:, 1] *= (room + 0.05) / room
     cands, best = wider.generate(frame, 0.0, 0.0, 0.0, 3.0, walls, None)
     assert best >= 0 and cands[best].speed_cap_mps == math.inf
+
+
+@pytest.mark.parametrize("closed", [True, False])
+def test_racing_line_gradient_is_the_sparse_jacobians_bit_for_bit(closed: bool) -> None:
+    from planner.racing_line import _CurvatureGradient, _jacobian, _menger_xy
+
+    rng = np.random.default_rng(3)
+    n = 101
+    a = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
+    centre = np.c_[30 * np.cos(a), 20 * np.sin(a)] + rng.normal(0.0, 0.5, (n, 2))
+    centre[5] = centre[4]  # a repeated point
+    normals = rng.standard_normal((n, 2))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    alpha = rng.normal(0.0, 1.0, n)
+    fast = _CurvatureGradient(centre, normals, closed)
+    kappa = menger_curvature(centre + alpha[:, None] * normals, closed)
+    assert _menger_xy(*fast.line(alpha), closed).tobytes() == kappa.tobytes()
+    sparse = np.asarray(_jacobian(centre, normals, alpha, closed).tocsr().T @ (2.0 * kappa))
+    assert fast.gradient(alpha, kappa).tobytes() == sparse.tobytes()
