@@ -58,6 +58,9 @@ class PathRef:
     _yaw_unwrapped: list[float] = field(init=False, repr=False, compare=False)
     _kappa: list[float] = field(init=False, repr=False, compare=False)
     _speed: list[float] = field(init=False, repr=False, compare=False)
+    _last_nearest: list[tuple[float, float, tuple[float, float]]] = field(
+        init=False, repr=False, compare=False)
+    """The last :meth:`nearest` query and answer (a tick asks twice: steering and speed)."""
 
     def __post_init__(self) -> None:
         def floats(values: FloatArray) -> list[float]:
@@ -69,6 +72,7 @@ class PathRef:
         object.__setattr__(self, "_yaw_unwrapped", floats(np.unwrap(self.yaw_rad)))
         object.__setattr__(self, "_kappa", floats(self.curvature_1pm))
         object.__setattr__(self, "_speed", floats(self.speed_mps))
+        object.__setattr__(self, "_last_nearest", [])
 
     @classmethod
     def from_targets(cls, targets: TargetStates) -> PathRef:
@@ -88,6 +92,14 @@ class PathRef:
         """Arc length (m) of the point of the path nearest (x, y), and the signed cross-track
         error (m): positive when the path lies to the left of the point (the point is right of
         the path, so steering left corrects it)."""
+        memo = self._last_nearest
+        if memo and memo[0][0] is x_m and memo[0][1] is y_m:  # the very same floats again
+            return memo[0][2]
+        answer = self._nearest(x_m, y_m)
+        memo[:] = [(x_m, y_m, answer)]
+        return answer
+
+    def _nearest(self, x_m: float, y_m: float) -> tuple[float, float]:
         dx = self.x_m - x_m
         dy = self.y_m - y_m
         i = int(np.argmin(dx * dx + dy * dy))
