@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import collections
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,12 +47,13 @@ class Candidate:
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Heading (K,) and curvature (K,) of a polyline by finite differences."""
-    d1 = np.gradient(xy, axis=0)
-    d2 = np.gradient(d1, axis=0)
-    heading = np.arctan2(d1[:, 1], d1[:, 0])
-    speed = np.maximum(np.linalg.norm(d1, axis=1), 1e-9)
-    kappa = (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / speed**3
+    """Heading and curvature of polylines by finite differences: ``xy`` (..., K, 2) gives
+    (..., K) each (every polyline on its own, as if alone)."""
+    d1 = np.gradient(xy, axis=-2)
+    d2 = np.gradient(d1, axis=-2)
+    heading = np.arctan2(d1[..., 1], d1[..., 0])
+    speed = np.maximum(np.linalg.norm(d1, axis=-1), 1e-9)
+    kappa = (d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]) / speed**3
     return heading, kappa
 
 
@@ -185,28 +186,26 @@ class ManoeuvreGenerator:
         n = max(int(math.ceil(total / c.path_step_m)), 4)
         u = np.linspace(0.0, total, n + 1)
         in_h = u <= horizon
-        cands: list[Candidate] = []
-        for off in offsets:
-            # cubic d(u) = d0 + slope0 u + a u^2 + b u^3 with d(H) = off, d'(H) = 0
-            H = horizon
-            rhs1 = off - d0_m - slope0 * H
-            rhs2 = -slope0
-            a = (3.0 * rhs1 - rhs2 * H) / H**2
-            b = (rhs2 * H - 2.0 * rhs1) / H**3
-            d = np.where(in_h, d0_m + slope0 * u + a * u**2 + b * u**3, off)
-            s = s0_m + u
-            xy = frame.frenet_to_xy(s, d)
-            heading, kappa = _path_geometry(xy)
-            cand = self._grade(float(off), s, d, xy, heading, kappa, in_h, tree, last_offset_m,
-                               speed_mps, margin_m)
-            if math.isfinite(speed_cap_mps):
-                cand = replace(cand, speed_cap_mps=speed_cap_mps)
-            cands.append(cand)
-        return cands
+        # every candidate of the family runs over the same s: the baseframe is sampled once and
+        # the candidates' geometry is computed together, each element as it would be alone
+        H = horizon
+        offs = np.asarray(offsets, np.float64).reshape(-1)
+        # cubic d(u) = d0 + slope0 u + a u^2 + b u^3 with d(H) = off, d'(H) = 0
+        rhs1 = offs - d0_m - slope0 * H
+        rhs2 = -slope0
+        a = (3.0 * rhs1 - rhs2 * H) / H**2
+        b = (rhs2 * H - 2.0 * rhs1) / H**3
+        cubic = d0_m + slope0 * u + a[:, None] * u**2 + b[:, None] * u**3
+        d_all = np.where(in_h, cubic, offs[:, None])
+        s = s0_m + u
+        xy_all = frame.frenet_to_xy(s, d_all)
+        heading_all, kappa_all = _path_geometry(xy_all)
+        return self._grade(offs, s, d_all, xy_all, heading_all, kappa_all, in_h, tree,
+                           last_offset_m, speed_mps, margin_m, speed_cap_mps)
 
     def _grade(
         self,
-        off: float,
+        offsets: FloatArray,
         s: FloatArray,
         d: FloatArray,
         xy: FloatArray,
@@ -217,45 +216,59 @@ class ManoeuvreGenerator:
         last_offset_m: float | None,
         speed_mps: float = 0.0,
         margin_m: float | None = None,
-    ) -> Candidate:
-        """A candidate's checks and cost; ``margin_m`` the full cone margin (None: the
+        speed_cap_mps: float = math.inf,
+    ) -> list[Candidate]:
+        """The checks and cost of candidates to ``offsets`` (C,) over the same ``s`` (K,): d,
+        heading, curvature (C, K), xy (C, K, 2); ``margin_m`` the full cone margin (None: the
         configured ``cone_clearance_m``)."""
         c = self.config
-        reason = ""
-        k_abs = np.abs(kappa[1:-1]) if len(kappa) > 2 else np.abs(kappa)
-        kmax = float(k_abs.max()) if len(k_abs) else 0.0
-        feasible = True
-        collision_free = True
-        if kmax > self.kappa_max_1pm:
-            feasible, reason = False, f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
-        clearance = math.inf
+        count, k_len = d.shape
+        k_abs = np.abs(kappa[:, 1:-1]) if k_len > 2 else np.abs(kappa)
+        kmax_all = k_abs.max(axis=1) if k_abs.shape[1] else np.zeros(count)
+        gap_all: FloatArray | None = None
         if tree is not None:
             cos_h, sin_h = np.cos(heading), np.sin(heading)
-            centres = (xy[:, None, :] + self.circle_offsets_m[None, :, None]
-                       * np.stack([cos_h, sin_h], axis=1)[:, None, :]).reshape(-1, 2)
+            centres = (xy[:, :, None, :] + self.circle_offsets_m[None, None, :, None]
+                       * np.stack([cos_h, sin_h], axis=-1)[:, :, None, :]).reshape(-1, 2)
             dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
-            gap = dist.reshape(len(xy), -1).min(axis=1) - self.circle_radius_m
-            clearance = float(np.min(gap))
-            # the hard margin grows from where the car is now (it is there: no closer than it
-            # already stands, if that is inside the near margin) to the full margin ahead; the
-            # preferred room is a cost, not a limit
+            gap_all = dist.reshape(count, k_len, -1).min(axis=2) - self.circle_radius_m
             u = s - s[0]
             ramp = max(c.clearance_ramp_m, abs(speed_mps) * c.clearance_ramp_time_s, 1e-6)
             full = c.cone_clearance_m if margin_m is None else margin_m
-            near = min(c.cone_clearance_near_m, full, max(float(gap[0]), 0.0))
-            margin = near + (full - near) * np.clip(u / ramp, 0.0, 1.0)
-            slack = gap - margin
-            i = int(np.argmin(slack))
-            if slack[i] < 0.0:
-                feasible = collision_free = False
-                reason = f"clearance {gap[i]:.2f} m to a cone at {u[i]:.1f} m"
+            ramp_frac = np.clip(u / ramp, 0.0, 1.0)
         step = float(np.mean(np.diff(s))) if len(s) > 1 else 1.0
-        cost = c.weight_curvature * float(np.sum(kappa[in_h] ** 2) * step)
-        cost += c.weight_offset * off * off
-        if last_offset_m is not None:
-            cost += c.weight_consistency * (off - last_offset_m) ** 2
-        if math.isfinite(clearance):
-            short = max(0.0, c.preferred_clearance_m - clearance)
-            cost += c.weight_clearance * short * short
-        return Candidate(off, s, d, xy, heading, kappa, clearance, feasible, cost, reason,
-                         collision_free, kmax)
+        cands: list[Candidate] = []
+        for j in range(count):
+            off = float(offsets[j])
+            reason = ""
+            kmax = float(kmax_all[j])
+            feasible = True
+            collision_free = True
+            if kmax > self.kappa_max_1pm:
+                feasible, reason = False, f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
+            clearance = math.inf
+            if gap_all is not None:
+                gap = gap_all[j]
+                clearance = float(np.min(gap))
+                # the hard margin grows from where the car is now (it is there: no closer than
+                # it already stands, if that is inside the near margin) to the full margin
+                # ahead; the preferred room is a cost, not a limit
+                near = min(c.cone_clearance_near_m, full, max(float(gap[0]), 0.0))
+                margin = near + (full - near) * ramp_frac
+                slack = gap - margin
+                i = int(np.argmin(slack))
+                if slack[i] < 0.0:
+                    feasible = collision_free = False
+                    reason = f"clearance {gap[i]:.2f} m to a cone at {u[i]:.1f} m"
+            kappa_j = kappa[j]
+            cost = c.weight_curvature * float(np.sum(kappa_j[in_h] ** 2) * step)
+            cost += c.weight_offset * off * off
+            if last_offset_m is not None:
+                cost += c.weight_consistency * (off - last_offset_m) ** 2
+            if math.isfinite(clearance):
+                short = max(0.0, c.preferred_clearance_m - clearance)
+                cost += c.weight_clearance * short * short
+            cands.append(Candidate(off, s, d[j], xy[j], heading[j], kappa_j, clearance,
+                                   feasible, cost, reason, collision_free, kmax,
+                                   speed_cap_mps))
+        return cands
