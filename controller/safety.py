@@ -279,9 +279,14 @@ class SafetySupervisor:
         if not all(math.isfinite(v) for v in values) or not np.all(np.isfinite(pose.covariance)):
             return "non-finite pose"
         cov = pose.covariance
-        sigma_xy = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2]).max()), 0.0))
-        if sigma_xy > c.max_position_sigma_m:
-            return f"pose uncertain: position sigma {sigma_xy:.2f} m"
+        limit = c.max_position_sigma_m
+        # no eigenvalue of the symmetric block [[a, b], [b, d]] exceeds max(a, d) + |b|
+        # (Gershgorin): well inside the limit the eigenvalues need not be computed
+        bound = max(float(cov[0, 0]), float(cov[1, 1])) + abs(float(cov[1, 0]))
+        if not (limit >= 0.0 and bound < 0.999 * limit * limit):
+            sigma_xy = math.sqrt(max(float(np.linalg.eigvalsh(cov[:2, :2]).max()), 0.0))
+            if sigma_xy > limit:
+                return f"pose uncertain: position sigma {sigma_xy:.2f} m"
         sigma_yaw = math.sqrt(max(float(cov[2, 2]), 0.0))
         if sigma_yaw > c.max_yaw_sigma_rad:
             return f"pose uncertain: yaw sigma {sigma_yaw:.2f} rad"
