@@ -14,6 +14,7 @@ brakes to a stop when actuator frames stop coming for 200 ms.
 
 from __future__ import annotations
 
+import gc
 import json
 import logging
 import math
@@ -215,6 +216,10 @@ class HardwareEmulator:
         if options.write_config is not None:  # after the handlers: a script may signal at once
             self.write_drive_config(options.write_config)
         self._wait_for_stack(options.wait_for_stack_s)
+        # What is built lives to the end: out of the collector's sight, so that its full
+        # collections (which stop this loop) stay short, as in drive's processes.
+        gc.collect()
+        gc.freeze()
         clock = RealClock()
         stop_reason = "signal"
         idle_since: float | None = None
@@ -252,6 +257,7 @@ class HardwareEmulator:
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            gc.unfreeze()
             self.close()
         summary = self.summary(stop_reason, clock.now_s())
         if options.summary is not None:
