@@ -65,12 +65,8 @@ class LidarParser:
             if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
                 log.warning("lidar: rejected datagram (%s; %d so far)", exc, self.rejects[reason])
             return []
-        guard = self.guard
-        refused = guard.refused_count
-        admitted = guard.admit((timestamp_s, payload, fields), payload)
-        if guard.refused_count != refused:
-            self.rejects["wrong_model"] += guard.refused_count - refused
-        return self._assemble(admitted) if admitted else []
+        return self._assemble(self._admit(
+            lambda: self.guard.admit((timestamp_s, payload, fields), payload)))
 
     def flush(self) -> list[LidarCones]:
         """Detect cones in the partial sweep collected so far (end of a file or a stream)."""

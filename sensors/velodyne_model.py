@@ -183,11 +183,8 @@ class ModelGuard(Generic[T]):
         if verdict is None:
             self._held = (item, payload)  # no timing yet: wait for the next packet
             return out
-        if verdict.model == VLP16:
-            if out:
-                out.append(item)
-                return out
-            return [item]
+        if verdict.accepted:
+            return [*out, item]
         self._refuse(verdict)
         return out
 
