@@ -8,9 +8,11 @@ for the car's own hardware, which has processors of its own; here it shares the 
 runs at real-time priority ``EMULATOR_RT_PRIORITY``, below drive's control loop, and the busy
 processes cannot make the stand-in sensors late. When drive ends (or after
 ``--seconds``) it prints laps, cones hit (the emulated world's count), the control period p99
-against its target, the plan and map age p99 at the control loop, how late the emulator sent
-its units (its steps' lateness: a stand-in sensor late by more than a timeout is the test
-machine's, not the stack's), and the stop reason; last line
+against its target, how late the control loop woke, the CAN commands sent, failed and
+superseded and how long they waited for the bus, the plan and map age p99 at the control loop,
+how late the emulator sent its units (its steps' lateness: a stand-in sensor late by more than
+a timeout is the test machine's, not the stack's), each process's major page faults, and the
+stop reason; last line
 ``control_p99_over_period_ms=<x> laps=<n> cones_hit=<n>``.
 """
 
@@ -80,12 +82,22 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     print(f"laps                {result['drive'].get('laps_completed')}")
     print(f"cones hit           {result['emulator'].get('cones_hit')}")
     print(f"control period p99  {p99:.2f} ms (target {target:.2f} ms)")
+    print(f"control wake late   p99 {timing.get('control_wake_late_p99_ms')} ms, period max "
+          f"{timing.get('control_period_max_ms')} ms")
+    can_send = timing.get("can_send", {})
+    print(f"CAN commands        {can_send.get('sent')} sent, {can_send.get('errors')} failed, "
+          f"{can_send.get('superseded')} superseded; waited p99 {can_send.get('lag_p99_ms')} "
+          f"ms, max {can_send.get('lag_max_ms')} ms (the control loop never waits)")
     print(f"plan age p99        {timing.get('plan_age_p99_ms')} ms")
     print(f"map age p99         {timing.get('map_age_p99_ms')} ms")
     emulator = result["emulator"]
     print(f"emulator late       p99 {emulator.get('step_late_p99_ms')} ms, max "
           f"{emulator.get('step_late_max_ms')} ms, {emulator.get('steps_late')} steps over "
           f"100 ms (the stand-in sensors' own delay)")
+    faults = timing.get("major_page_faults", {})
+    print(f"major page faults   control {faults.get('control')}, executive "
+          f"{faults.get('executive')}, emulator {emulator.get('major_page_faults')} (memory "
+          f"locked: {timing.get('memory_locked')})")
     print(f"stop reason         {result['drive'].get('stop_reason')}")
     print(f"control_p99_over_period_ms={p99 - target:.2f} "
           f"laps={result['drive'].get('laps_completed')} "

@@ -97,7 +97,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     drive.add_argument("--seconds", type=positive_seconds, help="stop after this long (s)")
     drive.add_argument("--render", action="store_true", help="render frames of the map")
     drive.add_argument("--rt-priority", type=int_in(0, 99), default=None, metavar="N",
-                       help="SCHED_FIFO priority of the control loop (default 10; 0: none)")
+                       help="SCHED_FIFO priority of the control loop, with both processes' memory "
+                            "locked in RAM (default 10; 0: neither)")
     _add_live(drive)
     drive.set_defaults(func=_drive)
 
@@ -120,8 +121,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     emulate.add_argument("--summary", type=Path, metavar="F", help="write the summary JSON here")
     emulate.add_argument("--workdir", type=Path, help="folder for the port links (default: temp)")
     emulate.add_argument("--rt-priority", type=int_in(0, 99), default=0, metavar="N",
-                         help="SCHED_FIFO priority of the emulator (default 0: none); on a busy "
-                              "test machine it keeps the stand-in hardware on time")
+                         help="SCHED_FIFO priority of the emulator, with its memory locked in RAM "
+                              "(default 0: neither); on a busy test machine it keeps the "
+                              "stand-in hardware on time")
     emulate.add_argument("--seed", type=non_negative_int,
                          help="random seed of the simulated world (>= 0)")
     emulate.set_defaults(func=_emulate)
@@ -253,6 +255,7 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
 
     from orchestrator.config import apply_mission
     from orchestrator.live import set_realtime_priority
+    from orchestrator.priority import lock_memory
     from simulator.emulator import EmulatorOptions, HardwareEmulator
 
     apply_mission(config.mission, None, args.mission, args.exploration)
@@ -268,6 +271,8 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
                               move_delay_s=config.controller.as_state.min_driving_before_move_s)
     # before the emulator starts its threads: they inherit the policy
     set_realtime_priority(args.rt_priority, "emulator")
+    if args.rt_priority > 0:  # a real-time stand-in for the car: no page read back from disk
+        lock_memory("emulator")
     emulator = HardwareEmulator(config, options)
     print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
           f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "

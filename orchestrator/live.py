@@ -34,6 +34,7 @@ import logging
 import math
 import multiprocessing as mp
 import os
+import resource
 import signal
 import sys
 import threading
@@ -71,7 +72,8 @@ from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import control_sensors, worker_main
 from orchestrator.main_loop import StageTimes
 from orchestrator.managers import make_controller, make_sensors
-from orchestrator.priority import DEFAULT_EXECUTIVE_NICENESS
+from orchestrator.priority import DEFAULT_EXECUTIVE_NICENESS, lock_memory, unlock_memory
+from sensors.can_receiver import CanReceiver
 from sensors.manager import SOURCES
 
 log = logging.getLogger(__name__)
@@ -218,6 +220,8 @@ class LiveMain:
         self.worker_stats: dict[str, Any] = {}
         self.worker_loaded = False
         self.realtime = False
+        self.memory_locked = False
+        """Whether this process's memory is locked in RAM (real-time mode, when allowed)."""
         self.gc_times = StageTimes()
         self._gc_t0 = 0.0
         self.stop = threading.Event()
@@ -338,6 +342,8 @@ class LiveMain:
                 self._link.send_nowait(Start(self.clock))
                 previous_policy = set_realtime_priority(self.options.realtime_priority)
                 self.realtime = previous_policy is not None
+                if self.options.realtime_priority > 0:
+                    self.memory_locked = lock_memory("control process")
                 self.sensors.start()  # the CAN receiver thread inherits the priority
                 stop_reason = self._loop()
             if self.errors:
@@ -356,6 +362,8 @@ class LiveMain:
                 gc.callbacks.remove(self._gc_callback)
             gc.unfreeze()
             restore_priority(previous_policy)
+            if self.memory_locked:
+                unlock_memory()
         return self._summary(stop_reason)
 
     def _loop(self) -> str:
@@ -448,6 +456,12 @@ class LiveMain:
                 timing[f"{name}_p99_ms"] = round(float(np.percentile(ages_ms, 99)), 3)
                 timing[f"{name}_max_ms"] = round(float(ages_ms.max()), 3)
         timing["realtime_priority"] = self.options.realtime_priority if self.realtime else None
+        timing["memory_locked"] = {"control": self.memory_locked,
+                                   "executive": bool(self.worker_stats.get("memory_locked"))}
+        # a page read back from disk stalls its thread (tens to hundreds of ms on a busy computer)
+        timing["major_page_faults"] = {
+            "control": resource.getrusage(resource.RUSAGE_SELF).ru_majflt,
+            "executive": self.worker_stats.get("major_page_faults")}
         if self.wake_late_s:
             late_ms = np.asarray(self.wake_late_s) * 1e3
             timing["control_wake_late_p99_ms"] = round(float(np.percentile(late_ms, 99)), 3)
@@ -456,6 +470,9 @@ class LiveMain:
         timing["stages_ms"] = stages
         timing["lags_ms"] = {"controller": self.reactive.rate.summary_ms(),
                              **self.worker_stats.get("lags_ms", {})}
+        can_receiver = self.sensors.receivers.get("can")
+        if isinstance(can_receiver, CanReceiver):
+            timing["can_send"] = can_receiver.send_stats()
         link = self._link
         if link is not None:
             timing["link_messages"] = {"sent": link.sent, "received": link.received,

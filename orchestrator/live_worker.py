@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import logging
+import resource
 import signal
 import socket
 import threading
@@ -66,7 +67,7 @@ from orchestrator.layers import DeliberativeLayer, ExecutiveLayer, OutputLayer
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
-from orchestrator.priority import set_niceness
+from orchestrator.priority import lock_memory, set_niceness
 from recordings.topics import COMMAND, PLAN
 from sensors.config import SensorsConfig
 
@@ -150,6 +151,8 @@ class Worker:
         self.command: ActuatorCommand | None = None
         self.remote: RemoteStop | None = None
         self.gc_times: GcTimes | None = None
+        self.memory_locked = False
+        """Whether this process's memory is locked in RAM (drive in real-time mode)."""
 
     @property
     def planner(self) -> Any:
@@ -289,6 +292,8 @@ class Worker:
         # collector's sight, so its full collections (which hold the GIL) stay short.
         gc.collect()
         gc.freeze()
+        if self.options.realtime_priority > 0:
+            self.memory_locked = lock_memory("executive process")
         self.gc_times = GcTimes()
         gc.callbacks.append(self.gc_times)
         self.link.send(Loaded())
@@ -338,6 +343,8 @@ class Worker:
             "lags_ms": self._lags_ms(),
             "outputs_sha256": self.hasher.hexdigest(),
             "errors": self.errors,
+            "memory_locked": self.memory_locked,
+            "major_page_faults": resource.getrusage(resource.RUSAGE_SELF).ru_majflt,
         }
         if self.gc_times is not None:
             stats["gc_ms"] = self.gc_times.summary_ms()

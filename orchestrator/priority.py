@@ -1,10 +1,14 @@
-"""Process priority of ``drive``'s executive process (the reactive layer's real-time priority
-is :func:`orchestrator.live.set_realtime_priority`)."""
+"""What ``drive``'s processes ask of the operating system to keep their timing on a busy
+computer: the executive process's niceness, and memory locked in RAM (the reactive layer's
+real-time priority is :func:`orchestrator.live.set_realtime_priority`)."""
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import logging
 import os
+import resource
 
 log = logging.getLogger(__name__)
 
@@ -26,3 +30,47 @@ def set_niceness(niceness: int) -> bool:
         return False
     log.info("executive process at niceness %d", niceness)
     return True
+
+
+MCL_CURRENT = 1
+MCL_FUTURE = 2
+"""``mlockall`` flags (``sys/mman.h``, the same on every Linux architecture)."""
+
+
+def lock_memory(what: str) -> bool:
+    """Lock the calling process's pages in RAM (``mlockall(MCL_CURRENT | MCL_FUTURE)``), as a
+    real-time process does: a page the kernel has dropped (a shared library's code, even
+    without swap) is read back from disk when next touched, a major fault that stalls the
+    thread for tens to hundreds of milliseconds on a busy computer (issue 19 measured 150 ms
+    wake-ups and a 430 ms stand-in sensor this way).
+
+    Needs root, CAP_IPC_LOCK or an unlimited ``ulimit -l``; otherwise, or off Linux, it logs a
+    warning and returns False (with a limited lock allowance the process's later allocations
+    would fail once past it, so it is not attempted). ``what`` names the process in the log.
+    """
+    libc_name = ctypes.util.find_library("c")
+    if not hasattr(os, "geteuid") or libc_name is None:
+        log.warning("cannot lock the %s's memory on this system: its timing depends on the "
+                    "kernel keeping its pages in RAM", what)
+        return False
+    soft, _ = resource.getrlimit(resource.RLIMIT_MEMLOCK)
+    if os.geteuid() != 0 and soft != resource.RLIM_INFINITY:
+        log.warning("memory lock of the %s not attempted: the lock limit is %d KiB (raise it "
+                    "with `ulimit -l unlimited`, or give CAP_IPC_LOCK); its timing depends on "
+                    "the kernel keeping its pages in RAM", what, soft // 1024)
+        return False
+    libc = ctypes.CDLL(libc_name, use_errno=True)
+    if libc.mlockall(MCL_CURRENT | MCL_FUTURE) != 0:
+        errno = ctypes.get_errno()
+        log.warning("memory lock of the %s refused (%s): its timing depends on the kernel "
+                    "keeping its pages in RAM", what, os.strerror(errno))
+        return False
+    log.info("%s memory locked in RAM", what)
+    return True
+
+
+def unlock_memory() -> None:
+    """Undo :func:`lock_memory` (``munlockall``); harmless when nothing is locked."""
+    libc_name = ctypes.util.find_library("c")
+    if libc_name is not None:
+        ctypes.CDLL(libc_name, use_errno=True).munlockall()

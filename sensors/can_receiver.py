@@ -5,7 +5,10 @@ Frames are stamped ``clock.now_s()`` at receipt (not the interface's own timesta
 time or the adapter's counter). Error frames are counted as errors; a bus-off error frame or a
 failing ``recv`` closes the bus and reopens it with backoff. :meth:`CanReceiver.send` puts an
 actuator command frame on the bus (thread-safe; a failure is counted, logged and reported as
-False, never raised into the control loop).
+False, never raised into the control loop). :meth:`CanReceiver.post` hands a frame to a sender
+thread of its own and returns at once, so the control loop never waits on the bus (an slcan
+adapter's serial write was measured to hold a 10 ms control tick up to 10 ms on a busy
+computer, issue 19); of the frames waiting with one id only the latest is sent.
 
 On the car (SocketCAN) reopening the socket does not restart a bus-off controller: give the
 kernel an automatic restart, ``ip link set can0 type can bitrate 500000 restart-ms 100``.
@@ -17,9 +20,11 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections import deque
 from typing import Any
 
 import can
+import numpy as np
 
 from common.clock import Clock
 from common.errors import SensorError
@@ -31,6 +36,10 @@ logger = logging.getLogger(__name__)
 
 CAN_ERR_BUSOFF = 0x00000040
 """Linux SocketCAN error class bit of a bus-off error frame (``linux/can/error.h``)."""
+
+
+SENDER_FINISH_S = 0.5
+"""How long (s) a stopping receiver waits for its sender thread to send what is posted."""
 
 
 class CanReceiver(Receiver):
@@ -59,6 +68,14 @@ class CanReceiver(Receiver):
         self.error_frames = 0
         self._bus: can.BusABC | None = None
         self._send_lock = threading.Lock()
+        # The sender thread's side (post): frames waiting, by (id, extended), oldest first.
+        self.superseded = 0
+        """Posted frames replaced by a newer one with the same id before they were sent."""
+        self._outbox: dict[tuple[int, bool], tuple[CanFrame, float]] = {}
+        self._outbox_ready = threading.Condition()
+        self._sender: threading.Thread | None = None
+        self._sender_stop = False
+        self._send_lags_s: deque[float] = deque(maxlen=100_000)
 
     def describe(self) -> str:
         return f"CAN {self.interface}:{self.channel}"
@@ -70,6 +87,12 @@ class CanReceiver(Receiver):
         self._bus = can.Bus(interface=self.interface, channel=self.channel, **kwargs)
 
     def _close(self) -> None:
+        sender = self._sender
+        if self._sender_stop and sender is not None and sender is not threading.current_thread():
+            sender.join(SENDER_FINISH_S)  # stopping for good: what is posted goes out first
+            if sender.is_alive():
+                logger.error("%s: sender thread did not finish within %.2f s", self.describe(),
+                             SENDER_FINISH_S)
         with self._send_lock:
             bus, self._bus = self._bus, None
         if bus is not None:
@@ -99,6 +122,69 @@ class CanReceiver(Receiver):
             return []
         return [CanFrame(self.clock.now_s(), msg.arbitration_id, bytes(msg.data),
                          msg.is_extended_id)]
+
+    # -- sending ----------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Start the receiver thread and the sender thread (both inherit the caller's
+        scheduling policy)."""
+        super().start()
+        if self._sender is not None and self._sender.is_alive():
+            return
+        with self._outbox_ready:
+            self._sender_stop = False
+        self._sender = threading.Thread(target=self._send_loop, name="sender-can", daemon=True)
+        self._sender.start()
+
+    def request_stop(self) -> None:
+        """Ask both threads to stop (returns at once): the sender sends what is posted, then
+        the receiver thread closes the bus (:meth:`_close` waits for the sender)."""
+        with self._outbox_ready:
+            self._sender_stop = True
+            self._outbox_ready.notify()
+        super().request_stop()
+
+    def post(self, frame: CanFrame) -> None:
+        """Hand ``frame`` to the sender thread and return at once (never waits on the bus).
+
+        A frame still waiting with the same id (an older command or status) is replaced and
+        counted in :attr:`superseded`: the bus gets the latest, never a stale one late. Before
+        :meth:`start` or after :meth:`stop` the frame is sent here, synchronously.
+        """
+        sender = self._sender
+        if sender is None or not sender.is_alive():
+            self.send(frame)
+            return
+        key = (frame.arbitration_id, frame.is_extended_id)
+        with self._outbox_ready:
+            if self._outbox.pop(key, None) is not None:
+                self.superseded += 1
+            self._outbox[key] = (frame, self.clock.now_s())
+            self._outbox_ready.notify()
+
+    def send_stats(self) -> dict[str, float | int]:
+        """Frames sent, failed and superseded, and how long (ms) posted frames waited for
+        the bus: the 99th percentile and the maximum of the time from :meth:`post` to sent."""
+        out: dict[str, float | int] = {"sent": self.sent, "errors": self.send_errors,
+                                       "superseded": self.superseded}
+        lags_ms = np.asarray(self._send_lags_s) * 1e3
+        if lags_ms.size:
+            out["lag_p99_ms"] = round(float(np.percentile(lags_ms, 99)), 3)
+            out["lag_max_ms"] = round(float(lags_ms.max()), 3)
+        return out
+
+    def _send_loop(self) -> None:
+        while True:
+            with self._outbox_ready:
+                while not self._outbox and not self._sender_stop:
+                    self._outbox_ready.wait()
+                if not self._outbox:
+                    return
+                waiting = list(self._outbox.values())
+                self._outbox.clear()
+            for frame, posted_s in waiting:
+                self.send(frame)
+                self._send_lags_s.append(self.clock.now_s() - posted_s)
 
     def send(self, frame: CanFrame) -> bool:
         """Send ``frame`` on the bus; False (counted, logged) when the bus is down or refuses."""

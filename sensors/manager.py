@@ -267,15 +267,16 @@ class SensorManager:
     def send_command(self, cmd: ActuatorCommand) -> CanFrame:
         """Encode ``cmd`` as the DBC's AS_COMMAND frame and, when live, send it on the CAN bus.
 
-        Returns the frame (also offline, where the simulator takes it). A send failure is
-        counted in the CAN source's errors and logged; it does not raise.
+        Returns the frame (also offline, where the simulator takes it). Live, the CAN
+        receiver's sender thread writes it (:meth:`CanReceiver.post`): this never waits on the
+        bus. A send failure is counted in the CAN source's errors and logged; it does not raise.
         """
         frame = self._command_codec.encode_command(cmd)
         receiver = self.receivers.get("can")
         if receiver is not None and self._started:
             from sensors.can_receiver import CanReceiver
             if isinstance(receiver, CanReceiver):
-                receiver.send(frame)
+                receiver.post(frame)
         return frame
 
     @property
@@ -306,5 +307,5 @@ class SensorManager:
         if receiver is not None and self._started:
             from sensors.can_receiver import CanReceiver
             if isinstance(receiver, CanReceiver):
-                receiver.send(frame)
+                receiver.post(frame)
         return frame

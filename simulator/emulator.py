@@ -18,6 +18,7 @@ import gc
 import json
 import logging
 import math
+import resource
 import signal
 import tempfile
 import time
@@ -335,6 +336,7 @@ class HardwareEmulator:
                          else None),
             "as_transitions": [{"time_s": round(t, 3), "state": state.name}
                                for t, state in self.world.as_transitions],
+            "major_page_faults": resource.getrusage(resource.RUSAGE_SELF).ru_majflt,
             **self._lateness(),
         }
 
