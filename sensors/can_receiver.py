@@ -8,7 +8,9 @@ actuator command frame on the bus (thread-safe; a failure is counted, logged and
 False, never raised into the control loop). :meth:`CanReceiver.post` hands a frame to a sender
 thread of its own and returns at once, so the control loop never waits on the bus (an slcan
 adapter's serial write was measured to hold a 10 ms control tick up to 10 ms on a busy
-computer, issue 19); of the frames waiting with one id only the latest is sent.
+computer, issue 19); of the frames waiting with one id only the latest is sent. An slcan
+adapter's frames are written by :class:`sensors.slcan_writer.SlcanWriter`, which never polls
+the tty (pyserial's write does, and a tty poll can wait 0.3 s for the kernel on a busy computer).
 
 On the car (SocketCAN) reopening the socket does not restart a bus-off controller: give the
 kernel an automatic restart, ``ip link set can0 type can bitrate 500000 restart-ms 100``.
@@ -25,17 +27,29 @@ from typing import Any
 
 import can
 import numpy as np
+from can.interfaces.slcan import slcanBus
 
 from common.clock import Clock
 from common.errors import SensorError
 from common.messages import CanFrame
 from sensors.can_codec import CanCodec
 from sensors.receiver import Intake, RawUnit, Receiver
+from sensors.slcan_writer import SlcanWriter
 
 logger = logging.getLogger(__name__)
 
 CAN_ERR_BUSOFF = 0x00000040
 """Linux SocketCAN error class bit of a bus-off error frame (``linux/can/error.h``)."""
+
+
+def _slcan_writer(bus: can.BusABC) -> SlcanWriter | None:
+    """A :class:`SlcanWriter` on ``bus``'s tty when it is python-can's slcan bus on a serial
+    port (not a ``socket://`` URL), else None (the bus's own ``send`` is used)."""
+    port = getattr(bus, "serialPortOrig", None)
+    fd = getattr(port, "fd", None)
+    if isinstance(bus, slcanBus) and isinstance(fd, int):
+        return SlcanWriter(fd)
+    return None
 
 
 SENDER_FINISH_S = 0.5
@@ -67,6 +81,8 @@ class CanReceiver(Receiver):
         self.send_errors = 0
         self.error_frames = 0
         self._bus: can.BusABC | None = None
+        self._slcan: SlcanWriter | None = None
+        """Writes this bus's frames when it is an slcan adapter on a tty (never waits)."""
         self._send_lock = threading.Lock()
         # The sender thread's side (post): frames waiting, by (id, extended), oldest first.
         self.superseded = 0
@@ -84,7 +100,10 @@ class CanReceiver(Receiver):
         kwargs = dict(self.bus_kwargs)
         if self.bitrate > 0:
             kwargs.setdefault("bitrate", self.bitrate)
-        self._bus = can.Bus(interface=self.interface, channel=self.channel, **kwargs)
+        bus = can.Bus(interface=self.interface, channel=self.channel, **kwargs)
+        with self._send_lock:
+            self._bus = bus
+            self._slcan = _slcan_writer(bus)
 
     def _close(self) -> None:
         sender = self._sender
@@ -95,6 +114,7 @@ class CanReceiver(Receiver):
                              SENDER_FINISH_S)
         with self._send_lock:
             bus, self._bus = self._bus, None
+            self._slcan = None
         if bus is not None:
             bus.shutdown()
 
@@ -198,7 +218,10 @@ class CanReceiver(Receiver):
             msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
                               is_extended_id=frame.is_extended_id)
             try:
-                bus.send(msg, timeout=self.send_timeout_s)
+                if self._slcan is not None:
+                    self._slcan.send(msg)
+                else:
+                    bus.send(msg, timeout=self.send_timeout_s)
             except Exception as exc:  # can.CanError, OSError, serial errors
                 self.send_errors += 1
                 self.intake.count_error("send", "sending 0x%03X failed: %r",
