@@ -6,11 +6,11 @@ time or the adapter's counter). Error frames are counted as errors; a bus-off er
 failing ``recv`` closes the bus and reopens it with backoff. :meth:`CanReceiver.send` puts an
 actuator command frame on the bus (thread-safe; a failure is counted, logged and reported as
 False, never raised into the control loop). :meth:`CanReceiver.post` hands a frame to a sender
-thread of its own and returns at once, so the control loop never waits on the bus (an slcan
-adapter's serial write was measured to hold a 10 ms control tick up to 10 ms on a busy
-computer, issue 19); of the frames waiting with one id only the latest is sent. An slcan
-adapter's frames are written by :class:`sensors.slcan_writer.SlcanWriter`, which never polls
-the tty (pyserial's write does, and a tty poll can wait 0.3 s for the kernel on a busy computer).
+thread of its own and returns at once, so the control loop never waits on the bus; of the
+frames waiting with one id only the latest is sent. An slcan adapter's frames are written by
+:class:`sensors.slcan_writer.SlcanWriter`, which never polls the tty: pyserial's write does, and
+on a busy computer issue 19 measured such sends held up to 480 ms (the control tick with them,
+before the sender thread).
 
 On the car (SocketCAN) reopening the socket does not restart a bus-off controller: give the
 kernel an automatic restart, ``ip link set can0 type can bitrate 500000 restart-ms 100``.
@@ -215,14 +215,14 @@ class CanReceiver(Receiver):
                 self.intake.count_error("send", "cannot send 0x%03X: bus not open",
                                         frame.arbitration_id)
                 return False
-            msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
-                              is_extended_id=frame.is_extended_id)
             try:
+                msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
+                                  is_extended_id=frame.is_extended_id, check=True)
                 if self._slcan is not None:
                     self._slcan.send(msg)
                 else:
                     bus.send(msg, timeout=self.send_timeout_s)
-            except Exception as exc:  # can.CanError, OSError, serial errors
+            except Exception as exc:  # can.CanError, OSError, serial errors, a bad frame
                 self.send_errors += 1
                 self.intake.count_error("send", "sending 0x%03X failed: %r",
                                         frame.arbitration_id, exc)

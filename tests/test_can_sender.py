@@ -100,3 +100,16 @@ def test_post_before_start_or_after_stop_is_a_counted_failure_not_an_exception()
     receiver = _receiver(f"sender-none-{os.getpid()}")
     receiver.post(_command(0.5))  # no bus open: counted, the caller carries on
     assert receiver.send_errors == 1 and receiver.sent == 0
+
+
+def test_a_frame_the_bus_cannot_carry_is_counted_and_the_sender_carries_on() -> None:
+    channel = f"sender-bad-{os.getpid()}"
+    receiver = _receiver(channel)
+    with can.Bus(interface="virtual", channel=channel) as peer, receiver:
+        assert receiver.wait_connected(5.0)
+        receiver.post(CanFrame(0.0, 0x050, bytes(9)))  # nine bytes: not a classic CAN frame
+        receiver.post(CanFrame(0.0, 0x7FF + 1, b"\x01"))  # an 11-bit id out of range
+        receiver.post(_command(0.3))
+        got = _received(peer, 1)
+        assert [m.arbitration_id for m in got] == [AS_COMMAND_ID]
+    assert receiver.send_errors == 2 and receiver.sent == 1
