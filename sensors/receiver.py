@@ -374,9 +374,10 @@ class Receiver(abc.ABC):
         self._opened_once = False
         self._log = RateLimitedLog(logger, burst=3, every=100)
         self.awake_s = -math.inf
-        """When (s, the clock's) this thread last came back from the transport with all it had
-        delivered taken in: the sensor was silent from its last unit up to then at least. A
-        busy process delays its reader; the time since ``awake_s`` is the reader's own delay,
+        """Up to when (s, the clock's) this thread has proven the sensor silent since its last
+        unit: when it came back from a read with all it had delivered taken in, or, after a
+        read that returned nothing, when that read began (a thread of a busy process may come
+        back long after its wait ended). The time since ``awake_s`` is the reader's own delay,
         not the sensor's silence (:meth:`sensors.manager.SensorManager.health`)."""
 
     # -- the transport (subclasses) -------------------------------------------------------
@@ -485,6 +486,7 @@ class Receiver(abc.ABC):
                         self._stop.wait(backoff)
                         backoff = min(backoff * 2.0, self.reconnect_max_s)
                         continue
+                started_s = self.clock.now_s()
                 try:
                     units = self._read(self.read_timeout_s)
                 except Exception as exc:
@@ -500,7 +502,12 @@ class Receiver(abc.ABC):
                     backoff = self.reconnect_min_s
                     for unit in units:
                         self.intake.ingest(unit)
-                self.awake_s = returned_s  # only now: what the read returned is taken in
+                    self.awake_s = returned_s  # only now: what the read returned is taken in
+                else:
+                    # An empty read proves the silence up to when it began waiting, no further:
+                    # the thread may have waited long for the GIL after its wait ended, and
+                    # what arrived meanwhile is read next time, not lost.
+                    self.awake_s = started_s
         except BaseException:  # never let anything escape the thread unreported
             self.intake.count_error("thread", "receiver thread crashed", exc_info=True)
         finally:

@@ -4,6 +4,7 @@ live source stale only once its reader has seen the silence, or after a grace fo
 from __future__ import annotations
 
 import os
+import threading
 import time
 import tty
 
@@ -12,6 +13,7 @@ from common.messages import ImuSample, RawBytes
 from orchestrator.config import AppConfig
 from sensors.imu_protocol import encode_imu_packet
 from sensors.manager import SensorManager
+from sensors.receiver import Intake, RawUnit, Receiver
 
 
 def _imu_only(port: str = "/dev/null") -> AppConfig:
@@ -94,3 +96,52 @@ def test_a_real_reader_on_a_silent_port_reports_the_imu_stale_within_its_read_ti
         manager.stop()
         os.close(master)
         os.close(slave)
+
+
+class _LateBackReceiver(Receiver):
+    """A transport whose reads wait ``wait_s`` for nothing, then come back ``late_s`` after
+    their wait ended (the thread waited that long for the GIL in a busy process), while the
+    sensor's next unit arrived in between: the next read returns it."""
+
+    def __init__(self, clock: SimClock, intake: Intake, packet: bytes) -> None:
+        super().__init__("imu", clock, intake, read_timeout_s=0.02)
+        self.sim_clock = clock
+        self.packet = packet
+        self.reads = 0
+        self.returned = threading.Event()
+
+    def _open(self) -> None:
+        pass
+
+    def _close(self) -> None:
+        pass
+
+    def _read(self, timeout_s: float) -> list[RawUnit]:
+        self.reads += 1
+        if self.reads == 1:  # the sensor's unit, at once
+            return [RawBytes(self.sim_clock.now_s(), "imu", self.packet)]
+        if self.reads == 2:  # a wait of 20 ms for nothing, back 0.3 s later
+            self.sim_clock.set(self.sim_clock.now_s() + timeout_s + 0.3)
+            return []
+        self.returned.set()
+        self._stop.wait(1.0)
+        return []
+
+
+def test_an_empty_read_back_late_proves_silence_only_up_to_when_it_began() -> None:
+    config = _imu_only()
+    timeout_s = config.sensors.imu.timeout_s
+    clock = SimClock(1.0)
+    manager = SensorManager(config.sensors, config.car, clock)
+    packet = encode_imu_packet(ImuSample(1.0, 0.0, 0.0, 9.81, 0.0, 0.0, 0.1))
+    receiver = _LateBackReceiver(clock, manager.intakes["imu"], packet)
+    manager.receivers["imu"] = receiver
+    receiver.start()
+    try:
+        assert receiver.returned.wait(5.0)
+        now_s = clock.now_s()
+        assert now_s - 1.0 > timeout_s  # the last unit is older than the timeout ...
+        assert receiver.awake_s == 1.0  # ... but the reader proved silence only up to 1.0 s
+        assert not _stale(manager, now_s)  # its own lateness is not the sensor's silence
+    finally:
+        receiver.stop()
