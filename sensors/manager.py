@@ -118,6 +118,8 @@ class SensorManager:
         self._last_status: AsStatus | None = None
         self._next_status_s = -math.inf
         self._latest: dict[str, Reading] = {}
+        self._stale_live: set[str] = set()
+        """Live sources now stale (each logged once when it turned stale)."""
         self._started = False
 
     # -- live -----------------------------------------------------------------------------
@@ -253,24 +255,34 @@ class SensorManager:
             rate, age, errors, rejects = intake.health_figures(now_s)
             timeout_s = getattr(sc, source).timeout_s
             out.append(SourceHealth(now_s, source, alive, rate, age, errors,
-                                    self._stale(now_s, age, timeout_s, awake_s), rejects))
+                                    self._stale(now_s, age, timeout_s, awake_s, source),
+                                    rejects))
             if source == "can":
                 rate, age, _, _ = intake.health_figures(now_s, "res")
                 out.append(SourceHealth(now_s, "res", alive, rate, age, 0,
-                                        self._stale(now_s, age, sc.can.res_timeout_s, awake_s),
+                                        self._stale(now_s, age, sc.can.res_timeout_s, awake_s,
+                                                    "res"),
                                         ()))
         return Health(now_s, tuple(out))
 
     def _stale(self, now_s: float, age_s: float, timeout_s: float,
-               awake_s: float | None) -> bool:
+               awake_s: float | None, source: str = "") -> bool:
         """Stale, from the last reading's age (s) and when the receiver thread was last awake
-        (None: parsed in the caller's thread, which is never behind its own sensors)."""
+        (None: parsed in the caller's thread, which is never behind its own sensors). A live
+        source turning stale is logged once, with what its reader saw."""
         if age_s <= timeout_s:
+            self._stale_live.discard(source)
             return False
         if awake_s is None:
             return True
         silence_seen_s = awake_s - (now_s - age_s)
-        return silence_seen_s > timeout_s or age_s > timeout_s + self.config.reader_late_grace_s
+        stale = silence_seen_s > timeout_s or age_s > timeout_s + self.config.reader_late_grace_s
+        if stale and source not in self._stale_live and math.isfinite(age_s):
+            self._stale_live.add(source)
+            logger.warning("%s stale: last reading %.3f s ago; its reader proved %.3f s of "
+                           "silence (timeout %.3f s) and was last back %.3f s ago", source,
+                           age_s, silence_seen_s, timeout_s, now_s - awake_s)
+        return stale
 
     def send_command(self, cmd: ActuatorCommand) -> CanFrame:
         """Encode ``cmd`` as the DBC's AS_COMMAND frame and, when live, send it on the CAN bus.
