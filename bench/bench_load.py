@@ -80,7 +80,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     p99 = float(timing.get("control_period_p99_ms", float("nan")))
     print(f"busy processes      {args.busy}")
     print(f"laps                {result['drive'].get('laps_completed')}")
-    print(f"cones hit           {result['emulator'].get('cones_hit')}")
+    print(f"cones hit           {result['emulator'].get('cones_hit')} (at "
+          f"{result['emulator'].get('cone_hit_times_s')} s of the emulator's clock)")
     print(f"control period p99  {p99:.2f} ms (target {target:.2f} ms)")
     print(f"control wake late   p99 {timing.get('control_wake_late_p99_ms')} ms, period max "
           f"{timing.get('control_period_max_ms')} ms")

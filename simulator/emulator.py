@@ -322,6 +322,7 @@ class HardwareEmulator:
             "laps_completed": len(person.autonomous_crossings_s),
             "lap_times_s": person.lap_times_s(),
             "cones_hit": len(self.world.cones_hit),
+            "cone_hit_times_s": [round(t, 2) for t, _ in self.world.cone_hits],
             "off_track": self.world.off_track_events,
             "actuator_frames_in": self.frames_in,
             "non_command_frames_in": self.unknown_frames_in,
