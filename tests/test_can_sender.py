@@ -107,7 +107,7 @@ def test_a_frame_the_bus_cannot_carry_is_counted_and_the_sender_carries_on() -> 
     receiver = _receiver(channel)
     with can.Bus(interface="virtual", channel=channel) as peer, receiver:
         assert receiver.wait_connected(5.0)
-        receiver.post(CanFrame(0.0, 0x050, bytes(9)))  # nine bytes: not a classic CAN frame
+        receiver.post(CanFrame(0.0, 0x051, bytes(9)))  # nine bytes: not a classic CAN frame
         receiver.post(CanFrame(0.0, 0x7FF + 1, b"\x01"))  # an 11-bit id out of range
         receiver.post(_command(0.3))
         got = _received(peer, 1)
