@@ -1,8 +1,12 @@
 """The car's loop on a busy machine: the emulate + drive pair while busy processes hold the cores.
 
 Starts ``--busy`` processes (default 2) that spin, then ``emulate`` on small_track (the car over
-real transports: pseudo-terminals, slcan, UDP loopback) and ``drive --laps N`` against it, as
-``tests/test_e2e_emulate.py`` does. drive runs as on the car, its control loop at its default
+real transports: pseudo-terminals, a CAN bus, UDP loopback) and ``drive --laps N`` against it, as
+``tests/test_e2e_emulate.py`` does. The CAN bus (``--can``) is by default python-can's
+``udp_multicast``: kernel sockets, as the car's SocketCAN (this machine may have no ``vcan``).
+``--can slcan`` puts an slcan adapter on a pseudo-terminal instead, a USB adapter's path: on a
+machine whose cores are all busy, Linux's tty worker (normal priority) then holds frames for
+0.2-0.5 s at times, and the emulated car's 200 ms watchdog brakes (issue 19). drive runs as on the car, its control loop at its default
 real-time priority (without the privilege it says so and runs without). The emulator stands in
 for the car's own hardware, which has processors of its own; here it shares the cores, so it
 runs at real-time priority ``EMULATOR_RT_PRIORITY``, below drive's control loop, and the busy
@@ -49,6 +53,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seconds", type=positive_float, default=150.0,
                         help="longest the emulator runs (s, default 150)")
     parser.add_argument("--track", default=str(TRACK), help="track (default small_track)")
+    parser.add_argument("--can", choices=("udp", "slcan"), default="udp",
+                        help="the emulated car's CAN bus: udp_multicast (kernel sockets, as "
+                             "SocketCAN; default) or an slcan adapter on a pseudo-terminal")
     parser.add_argument("--runs", type=positive_int, default=1,
                         help="pairs run one after another (default 1); prints the clean count")
 
@@ -104,6 +111,7 @@ def _report(result: dict[str, Any], args: argparse.Namespace) -> tuple[float, in
     target = float(timing.get("control_period_target_ms", float("nan")))
     p99 = float(timing.get("control_period_p99_ms", float("nan")))
     print(f"busy processes      {args.busy}")
+    print(f"CAN bus             {args.can}")
     print(f"laps                {result['drive'].get('laps_completed')}")
     print(f"cones hit           {result['emulator'].get('cones_hit')} (at "
           f"{result['emulator'].get('cone_hit_times_s')} s of the emulator's clock)")
@@ -139,7 +147,8 @@ def _pair(folder: Path, args: argparse.Namespace) -> dict[str, Any]:
     emulator = _start(["emulate", "--track", args.track, "--write-config", str(car),
                        "--summary", str(emulator_json), "--seconds", str(args.seconds),
                        "--workdir", str(folder / "ports"),
-                       "--rt-priority", str(EMULATOR_RT_PRIORITY)], folder, "emulate")
+                       "--rt-priority", str(EMULATOR_RT_PRIORITY),
+                       "--can", args.can], folder, "emulate")
     end = time.monotonic() + 60.0
     while not car.exists():
         if emulator.poll() is not None or time.monotonic() > end:

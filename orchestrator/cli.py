@@ -126,6 +126,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                               "stand-in hardware on time")
     emulate.add_argument("--seed", type=non_negative_int,
                          help="random seed of the simulated world (>= 0)")
+    emulate.add_argument("--can", choices=("slcan", "udp"), default="slcan",
+                         help="the CAN bus: an slcan adapter on a pseudo-terminal (default), or "
+                              "python-can's udp_multicast (kernel sockets, as SocketCAN)")
     emulate.set_defaults(func=_emulate)
 
     _register_render(subparsers, common)
@@ -264,7 +267,7 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
                               handover_standstill_s=config.run.handover_standstill_s,
                               seconds=args.seconds,
                               write_config=args.write_config, summary=args.summary,
-                              workdir=args.workdir, seed=args.seed,
+                              workdir=args.workdir, seed=args.seed, can=args.can,
                               mission=config.mission.mission,
                               exploration=config.mission.exploration,
                               ready_wait_s=config.controller.as_state.min_ready_s,
@@ -275,7 +278,7 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
         lock_memory("emulator")
     emulator = HardwareEmulator(config, options)
     print(f"emulating {emulator.track.name}: gps {emulator.gps.link_path}, imu "
-          f"{emulator.imu.link_path}, can (slcan) {emulator.can.link_path}, lidar udp "
+          f"{emulator.imu.link_path}, can {emulator.can.describe()}, lidar udp "
           f"{emulator.lidar_port}, camera udp {emulator.camera_port}", flush=True)
     summary = emulator.run()
     print(json.dumps(summary, indent=2))

@@ -8,6 +8,7 @@ from typing import Any
 from common.clock import Clock
 from controller.as_state_machine import AsStateMachine
 from controller.controller import Controller
+from controller.safety import late_stop_distance_m
 from mapper.mapper import Mapper
 from orchestrator.config import AppConfig
 from planner.path_planner import PathPlanner
@@ -29,8 +30,11 @@ def make_mapper(config: AppConfig) -> Mapper:
 
 
 def make_planner(config: AppConfig) -> PathPlanner:
-    """The Path Planner, for the mission's path (known in advance or not)."""
-    return PathPlanner(config.planner, config.car, config.mission.mission)
+    """The Path Planner, for the mission's path (known in advance or not), told the room the
+    safety supervisor wants a late plan to leave for a stop."""
+    safety = config.controller.safety
+    return PathPlanner(config.planner, config.car, config.mission.mission,
+                       stop_distance_m=lambda speed_mps: late_stop_distance_m(speed_mps, safety))
 
 
 def make_controller(config: AppConfig) -> Controller:

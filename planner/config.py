@@ -73,6 +73,11 @@ class PlannerConfig:
     horizon_max_m: float = 20.0
     extension_m: float = 12.0
     """Length the chosen offset is held along the baseframe beyond the horizon (for look-ahead)."""
+    late_cover_s: float = 0.5
+    """A manoeuvre also reaches as far as the car drives in this long (s) plus the controlled
+    stop a late plan must leave room for (``controller.safety.late_stop_distance_m``, handed in
+    by Main): a plan this late still covers a stop, so the car follows it, slower, instead of
+    stopping (issue 19: under load a plan is 0.2-0.25 s old at times)."""
     path_step_m: float = 0.5
     stitch_tolerance_m: float = 0.0
     """A new manoeuvre starts from the previous one's offset and slope at the car's arc length

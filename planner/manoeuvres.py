@@ -5,12 +5,15 @@ horizon: in the Frenet frame d(s) is a cubic that starts at the car's lateral of
 and ends at the offset with zero slope; beyond the horizon the offset is held. Candidates that come
 within half the car's width plus a margin of a cone, or that bend more than the car can steer, are
 dropped; the rest are graded on curvature, clearance, offset and agreement with the last choice.
+At speed a manoeuvre reaches beyond the horizon at least as far as a plan followed late must
+leave room for a stop (:meth:`ManoeuvreGenerator.length_m`).
 """
 
 from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,9 +63,14 @@ def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
 class ManoeuvreGenerator:
     """Candidate manoeuvres along a baseframe, collision and curvature checked, graded."""
 
-    def __init__(self, config: PlannerConfig, car: CarConfig) -> None:
+    def __init__(self, config: PlannerConfig, car: CarConfig,
+                 stop_distance_m: Callable[[float], float] | None = None) -> None:
+        """``stop_distance_m(speed_mps)``: the room (m) a late plan must leave for a stop from
+        that speed (the safety supervisor's rule); None: manoeuvres end at the horizon plus
+        ``extension_m``, whatever the speed."""
         self.config = config
         self.car = car
+        self.stop_distance_m = stop_distance_m
         self.kappa_max_1pm = (
             math.tan(car.max_steer_rad) / car.wheelbase_m * config.curvature_limit_fraction
         )
@@ -87,6 +95,16 @@ class ManoeuvreGenerator:
         """Horizon (m): speed x horizon time, clipped to [min, max]."""
         c = self.config
         return float(np.clip(abs(speed_mps) * c.horizon_time_s, c.horizon_min_m, c.horizon_max_m))
+
+    def length_m(self, horizon_m: float, speed_mps: float) -> float:
+        """A manoeuvre's length (m): the horizon plus ``extension_m``, or more at speed: as far
+        as the car drives in ``late_cover_s`` plus the stop a late plan must leave room for."""
+        c = self.config
+        length = horizon_m + c.extension_m
+        if self.stop_distance_m is not None:
+            speed = abs(speed_mps)
+            length = max(length, speed * c.late_cover_s + self.stop_distance_m(speed))
+        return length
 
     def generate(
         self,
@@ -177,7 +195,7 @@ class ManoeuvreGenerator:
             dpsi = math.remainder(yaw_rad - float(h0), 2.0 * math.pi)
             dpsi = float(np.clip(dpsi, -1.2, 1.2))
             slope0 = math.tan(dpsi) * (1.0 - float(k0) * d0_m)
-        total = horizon + c.extension_m
+        total = self.length_m(horizon, speed_mps)
         if not frame.closed:  # an open frame ends: so do the candidates
             total = min(total, frame.length_m - s0_m)
             if total < 2.0 * c.path_step_m:

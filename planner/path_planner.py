@@ -11,6 +11,7 @@ from __future__ import annotations
 import collections
 import logging
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,10 +52,13 @@ def empty_targets() -> TargetStates:
 class PathPlanner:
     """Plans the car's next manoeuvre from the map state (see the module docstring)."""
 
-    def __init__(self, config: PlannerConfig, car: CarConfig, mission: str = "trackdrive") -> None:
+    def __init__(self, config: PlannerConfig, car: CarConfig, mission: str = "trackdrive",
+                 stop_distance_m: Callable[[float], float] | None = None) -> None:
         """``mission``: the mission's name (``orchestrator.config.MISSIONS``); acceleration
         and skidpad are driven on a path known in advance (:mod:`planner.known_path`), the
-        others on the track explored or mapped."""
+        others on the track explored or mapped. ``stop_distance_m(speed_mps)``: the room (m)
+        the safety supervisor wants a late plan to leave for a stop; manoeuvres at speed
+        reach that far beyond ``late_cover_s`` of driving (:class:`ManoeuvreGenerator`)."""
         self.config = config
         self.car = car
         self.mission = mission
@@ -63,7 +67,7 @@ class PathPlanner:
         self._race_worker = BackgroundRace() if c.racing_line_background else None
         self._lock_cap = steering_lock_cap(car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
                                            c.crawl_speed_mps)
-        self.generator = ManoeuvreGenerator(c, car)
+        self.generator = ManoeuvreGenerator(c, car, stop_distance_m)
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)
         top_speed = c.acceleration_max_speed_mps if mission == "acceleration" else c.max_speed_mps

@@ -92,6 +92,11 @@ class CanReceiver(Receiver):
         self._sender: threading.Thread | None = None
         self._sender_stop = False
         self._send_lags_s: deque[float] = deque(maxlen=100_000)
+        self._echoes_own = interface == "udp_multicast"
+        """python-can's ``udp_multicast`` hands every frame back to its sender (IP multicast
+        loops back to every socket on the host); SocketCAN and slcan do not. On such a bus a
+        frame with an id this receiver sends is its own, and is dropped on receipt."""
+        self._sent_ids: set[tuple[int, bool]] = set()
 
     def describe(self) -> str:
         return f"CAN {self.interface}:{self.channel}"
@@ -139,6 +144,8 @@ class CanReceiver(Receiver):
                 raise SensorError(f"{self.describe()}: bus-off")
             return []
         if msg.is_remote_frame:
+            return []
+        if self._echoes_own and (msg.arbitration_id, msg.is_extended_id) in self._sent_ids:
             return []
         return [CanFrame(self.clock.now_s(), msg.arbitration_id, bytes(msg.data),
                          msg.is_extended_id)]
@@ -218,6 +225,7 @@ class CanReceiver(Receiver):
             try:
                 msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
                                   is_extended_id=frame.is_extended_id, check=True)
+                self._sent_ids.add((frame.arbitration_id, frame.is_extended_id))
                 if self._slcan is not None:
                     self._slcan.send(msg)
                 else:

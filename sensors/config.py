@@ -45,6 +45,8 @@ class CanConfig:
     """No RES_STATE frame for longer than this makes the "res" source stale (an emergency)."""
     slcan_open_delay_s: float = 0.0
     """slcan only: wait after opening the tty (Arduino-based adapters reset on open: 2 s)."""
+    udp_port: int = 43113
+    """udp_multicast only: the bus's UDP port (python-can's default 43113)."""
 
 
 @dataclass(slots=True)

@@ -2,7 +2,8 @@
 
 ``python main.py emulate --track T --write-config car.toml`` runs the simulator in real time and
 serves its bytes as the hardware does: NMEA on one pseudo-terminal, IMU packets on another, CAN
-through an slcan adapter on a third, VLP-16 packets and camera datagrams over UDP on loopback.
+through an slcan adapter on a third (or ``--can udp``: python-can's ``udp_multicast`` bus, kernel
+sockets as the car's SocketCAN), VLP-16 packets and camera datagrams over UDP on loopback.
 It takes the actuator frames the stack sends on CAN and drives the simulated car with them.
 ``python main.py drive --config car.toml`` in another process then drives it as it would drive
 the car. The car selects its mission in ``MISSION_SELECT`` (``--mission``, 10 Hz) and decodes
@@ -36,7 +37,7 @@ from simulator.config import WorldConfig
 from simulator.driver import ScriptedDriver
 from simulator.handover import Handover, Phase
 from simulator.tracks import load_track
-from simulator.transports import PtyPort, SlcanAdapter, UdpSender, free_udp_port
+from simulator.transports import PtyPort, SlcanAdapter, UdpCanBus, UdpSender, free_udp_port
 from simulator.world import SimWorld
 
 log = logging.getLogger(__name__)
@@ -84,6 +85,9 @@ class EmulatorOptions:
     move_delay_s: float = 3.0
     """The car may move this long after the go (the rules' 3 s): the first lap is timed from
     then."""
+    can: str = "slcan"
+    """The CAN bus: ``slcan``, an slcan USB adapter on a pseudo-terminal; ``udp``, python-can's
+    ``udp_multicast`` bus, kernel sockets as the car's SocketCAN (:class:`UdpCanBus`)."""
 
 
 class HardwareEmulator:
@@ -113,7 +117,8 @@ class HardwareEmulator:
         self.workdir = workdir
         self.gps = PtyPort(workdir / "gps")
         self.imu = PtyPort(workdir / "imu")
-        self.can = SlcanAdapter(workdir / "can")
+        self.can: SlcanAdapter | UdpCanBus = (UdpCanBus() if options.can == "udp"
+                                              else SlcanAdapter(workdir / "can"))
         self.lidar_port = free_udp_port()
         self.camera_port = free_udp_port()
         self.lidar = UdpSender("127.0.0.1", self.lidar_port)
@@ -141,7 +146,7 @@ class HardwareEmulator:
             "sensors": {
                 "gps": {"port": str(self.gps.link_path)},
                 "imu": {"port": str(self.imu.link_path)},
-                "can": {"interface": "slcan", "channel": str(self.can.link_path)},
+                "can": self.can.drive_config(),
                 "lidar": {"host": "127.0.0.1", "port": self.lidar_port},
                 "camera": {"host": "127.0.0.1", "port": self.camera_port},
             },
@@ -296,7 +301,8 @@ class HardwareEmulator:
                                                        truth.y_m - self._watchdog_xy[1]), 3)
 
     def _wait_for_stack(self, timeout_s: float) -> None:
-        """Answer the adapter's commands until the stack opens the CAN bus (or ``timeout_s``)."""
+        """Answer the adapter's commands until the stack opens the CAN bus (or ``timeout_s``):
+    slcan's ``O``, or the stack's first frame on a UDP bus."""
         if timeout_s <= 0.0:
             return
         end = time.monotonic() + timeout_s

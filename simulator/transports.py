@@ -3,8 +3,9 @@
 Each plays the device side of a link the car's computer opens exactly as it opens the hardware:
 a serial GPS or IMU is a pseudo-terminal whose slave path the stack opens with pyserial; the CAN
 bus is an slcan adapter (the ASCII protocol a USB-CAN adapter speaks) on a pseudo-terminal that
-the stack opens with python-can's ``slcan`` interface; the LiDAR and the camera send UDP
-datagrams to loopback ports.
+the stack opens with python-can's ``slcan`` interface, or a kernel-socket bus
+(:class:`UdpCanBus`, python-can's ``udp_multicast``) where the car's SocketCAN cannot be had;
+the LiDAR and the camera send UDP datagrams to loopback ports.
 """
 
 from __future__ import annotations
@@ -17,6 +18,9 @@ import struct
 import termios
 import tty
 from pathlib import Path
+from typing import Any
+
+import can
 
 from common.messages import CanFrame
 
@@ -91,6 +95,13 @@ class SlcanAdapter(PtyPort):
         self.bad_lines = 0
         self.is_open = False
 
+    def drive_config(self) -> dict[str, Any]:
+        """``[sensors.can]`` for ``drive``."""
+        return {"interface": "slcan", "channel": str(self.link_path)}
+
+    def describe(self) -> str:
+        return f"slcan {self.link_path}"
+
     def send_frame(self, frame: CanFrame) -> None:
         data = frame.data.hex().upper()
         if frame.is_extended_id:
@@ -139,6 +150,72 @@ class SlcanAdapter(PtyPort):
             self.is_open = False
         self.write(b"\r")  # acknowledge a command
         return None
+
+
+class UdpCanBus:
+    """The car's CAN bus as python-can's ``udp_multicast`` interface on this machine.
+
+    The car's own bus is SocketCAN: frames pass through kernel sockets, never a tty. This
+    machine may have no ``vcan`` module, and an slcan adapter on a pseudo-terminal puts the
+    kernel's tty worker, which runs at normal priority, in the path of every frame (on a busy
+    machine issue 19 measured frames held there 0.2-0.5 s). python-can's ``udp_multicast`` bus
+    is a kernel socket too; the stack opens it as it opens any bus (``interface =
+    "udp_multicast"``). Each emulator has a port of its own, so that two runs never share a bus.
+
+    IP multicast hands every frame back to its sender: the frames with the ids this end sends
+    are dropped on receipt (they are its own). The stack opens the bus by sending its first
+    frame: :attr:`is_open` turns true then, as an slcan adapter's does on ``O``.
+    """
+
+    GROUP = "239.74.163.2"
+    """python-can's default IPv4 group for ``udp_multicast``."""
+
+    def __init__(self, port: int | None = None) -> None:
+        self.port = port if port is not None else free_udp_port("0.0.0.0")
+        self.bus = can.Bus(interface="udp_multicast", channel=self.GROUP, port=self.port)
+        self._sent_ids: set[tuple[int, bool]] = set()
+        self.bad_lines = 0
+        """Datagrams that were not a CAN frame, and frames that could not be sent."""
+        self.is_open = False
+
+    def drive_config(self) -> dict[str, Any]:
+        """``[sensors.can]`` for ``drive``."""
+        return {"interface": "udp_multicast", "channel": self.GROUP, "udp_port": self.port}
+
+    def describe(self) -> str:
+        return f"udp_multicast {self.GROUP}:{self.port}"
+
+    def send_frame(self, frame: CanFrame) -> None:
+        self._sent_ids.add((frame.arbitration_id, frame.is_extended_id))
+        try:
+            self.bus.send(can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
+                                      is_extended_id=frame.is_extended_id))
+        except (can.CanError, OSError) as exc:
+            self.bad_lines += 1
+            log.debug("CAN send failed: %r", exc)
+
+    def poll(self, timestamp_s: float) -> list[CanFrame]:
+        """Frames the stack has sent since the last call (never waits)."""
+        frames: list[CanFrame] = []
+        while True:
+            try:
+                msg = self.bus.recv(0.0)
+            except (can.CanError, OSError, ValueError) as exc:
+                self.bad_lines += 1
+                log.debug("CAN datagram refused: %r", exc)
+                return frames  # the rest next time (a closed socket fails every time)
+            if msg is None:
+                return frames
+            if (msg.arbitration_id, msg.is_extended_id) in self._sent_ids:
+                continue  # our own, looped back
+            if msg.is_error_frame or msg.is_remote_frame:
+                continue
+            self.is_open = True
+            frames.append(CanFrame(timestamp_s, msg.arbitration_id, bytes(msg.data),
+                                   msg.is_extended_id))
+
+    def close(self) -> None:
+        self.bus.shutdown()
 
 
 class UdpSender:

@@ -1,0 +1,78 @@
+"""A plan followed late still covers a stop: manoeuvres at speed reach beyond the horizon as far
+as the safety supervisor wants a late plan to leave room for (issue 19: under load a plan is
+0.2-0.25 s old at times, and a 24 m manoeuvre at 15 m/s then ended the run)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from common.messages import Baseframe, Plan, TargetStates
+from controller.safety import StopKind, late_stop_distance_m, manoeuvre_ahead_m
+from orchestrator.config import AppConfig
+from orchestrator.managers import make_planner
+from planner.baseframe import SplineBaseframe
+from planner.path_planner import PathPlanner
+from tests.test_safety_supervisor import driving_controller, health, pose
+
+
+def _straight_manoeuvre(planner: PathPlanner, speed_mps: float, t_s: float) -> Plan:
+    """The planner's manoeuvre from (0, 0) heading +x at ``speed_mps`` along a 400 m straight
+    with no cones, as the Plan it sends (timestamp ``t_s``)."""
+    x = np.arange(0.0, 400.0, 2.0)
+    frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
+    cands, best = planner.generator.generate(frame, 0.0, 0.0, 0.0, speed_mps, np.zeros((0, 2)),
+                                             None)
+    assert best >= 0
+    chosen = cands[best]
+    n = len(chosen.xy_m)
+    targets = TargetStates(np.full(n, t_s), chosen.xy_m[:, 0], chosen.xy_m[:, 1],
+                           chosen.heading_rad, np.full(n, speed_mps), chosen.curvature_1pm)
+    z = np.zeros_like(x)
+    baseframe = Baseframe(x, x, z, z, z, closed=False, length_m=400.0)
+    return Plan(t_s, baseframe, targets, speed_mps, chosen_index=0)
+
+
+@pytest.mark.parametrize("speed_mps", [5.0, 12.0, 15.3, 20.0])
+def test_a_manoeuvre_covers_a_late_stop_from_its_speed(speed_mps: float) -> None:
+    """Driven ``late_cover_s`` (0.5 s) past where it was planned, the manoeuvre still reaches a
+    controlled stop's distance (with its reaction and margin) ahead of the car; slow, it is the
+    horizon plus the extension as before."""
+    config = AppConfig()
+    planner = make_planner(config)
+    plan = _straight_manoeuvre(planner, speed_mps, 0.0)
+    late_s = config.planner.late_cover_s
+    ahead = manoeuvre_ahead_m(plan.manoeuvre, speed_mps * late_s, 0.0)
+    need = late_stop_distance_m(speed_mps, config.controller.safety)
+    assert ahead >= need - config.planner.path_step_m
+    horizon = planner.generator.horizon_m(speed_mps)
+    length = manoeuvre_ahead_m(plan.manoeuvre, 0.0, 0.0)
+    assert length == pytest.approx(max(horizon + config.planner.extension_m,
+                                       speed_mps * late_s + need), abs=0.01)
+
+
+def test_without_the_safety_rule_a_manoeuvre_ends_after_its_extension() -> None:
+    """A planner not told the supervisor's rule (a bench of its own) keeps the old length."""
+    config = AppConfig()
+    plan = _straight_manoeuvre(PathPlanner(config.planner, config.car), 15.3, 0.0)
+    horizon = float(np.clip(15.3 * config.planner.horizon_time_s, config.planner.horizon_min_m,
+                            config.planner.horizon_max_m))
+    assert manoeuvre_ahead_m(plan.manoeuvre, 0.0, 0.0) == pytest.approx(
+        horizon + config.planner.extension_m, abs=0.01)
+
+
+def test_the_supervisor_follows_a_plan_0_3_s_late_at_15_m_s() -> None:
+    """The case issue 19's bench met: at 15.3 m/s a plan 0.3 s old, the car 4.6 m along it.
+    With the old 24 m manoeuvre the supervisor stopped the car ("do not cover a stop"); now
+    the plan is followed."""
+    config = AppConfig()
+    speed = 15.3
+    outcomes = []
+    for planner in (PathPlanner(config.planner, config.car), make_planner(config)):
+        ctrl = driving_controller(config)
+        plan = _straight_manoeuvre(planner, speed, 0.02)
+        t = 0.32
+        ctrl.command(t, pose(t, x=speed * 0.3, v=speed), plan, health(t), None)
+        outcomes.append((ctrl.safety.stop, ctrl.stop_reason))
+    assert outcomes[0][0] == StopKind.CONTROLLED and "do not cover a stop" in outcomes[0][1]
+    assert outcomes[1][0] == StopKind.NONE, outcomes[1][1]
