@@ -6,18 +6,18 @@ real transports: pseudo-terminals, a CAN bus, UDP loopback) and ``drive --laps N
 ``udp_multicast``: kernel sockets, as the car's SocketCAN (this machine may have no ``vcan``).
 ``--can slcan`` puts an slcan adapter on a pseudo-terminal instead, a USB adapter's path: on a
 machine whose cores are all busy, Linux's tty worker (normal priority) then holds frames for
-0.2-0.5 s at times, and the emulated car's 200 ms watchdog brakes (issue 19). drive runs as on the car, its control loop at its default
-real-time priority (without the privilege it says so and runs without). The emulator stands in
-for the car's own hardware, which has processors of its own; here it shares the cores, so it
-runs at real-time priority ``EMULATOR_RT_PRIORITY``, below drive's control loop, and the busy
-processes cannot make the stand-in sensors late. When drive ends (or after
-``--seconds``) it prints laps, cones hit (the emulated world's count), the control period p99
-against its target, how late the control loop woke, the CAN commands sent, failed and
-superseded and how long they waited for the bus, the plan and map age p99 at the control loop,
-how late the emulator sent its units (its steps' lateness: a stand-in sensor late by more than
-a timeout is the test machine's, not the stack's), each process's major page faults, and the
-stop reason. ``--runs N`` runs N pairs one after another (one run says little on a loaded
-machine) and counts the clean ones; last line
+0.2-0.5 s at times, and the emulated car's 200 ms watchdog brakes (issue 19). drive runs as on
+the car, its control loop at its default real-time priority (without the privilege it says so
+and runs without). The emulator stands in for the car's own hardware, which has processors of
+its own; here it shares the cores, so it runs at real-time priority ``EMULATOR_RT_PRIORITY``,
+below drive's control loop, and the busy processes cannot make the stand-in sensors late. When
+drive ends (or after ``--seconds``) it prints laps, cones hit (the emulated world's count), the
+control period p99 against its target, how late the control loop woke, the CAN commands sent,
+failed and superseded and how long they waited for the bus, the plan and map age p99 at the
+control loop, how late the emulator sent its units (its steps' lateness: a stand-in sensor late
+by more than a timeout is the test machine's, not the stack's), each process's major page
+faults, and the stop reason. ``--runs N`` runs N pairs one after another (one run says little
+on a loaded machine) and counts the clean ones; last line
 ``control_p99_over_period_ms=<worst x> laps=<fewest> cones_hit=<most> clean=<k>/<N>``.
 """
 

@@ -109,5 +109,9 @@ class ControllerConfig:
     hold_brake: float = 1.0
     """Brake held at standstill in READY and FINISHED."""
     max_dt_s: float = 0.1
+    pose_prediction_max_s: float = 0.3
+    """The pose is carried forward to the control tick by its own motion over its age, at
+    most this long (s; 0: as the map sent it): on the car the map is 20-120 ms old when it
+    reaches the control loop (controller/pose_prediction.py)."""
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     as_state: AsStateMachineConfig = field(default_factory=AsStateMachineConfig)

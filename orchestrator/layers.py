@@ -45,6 +45,7 @@ from common.messages import (
     Reading,
     RemoteStop,
 )
+from controller.pose_prediction import predict_pose
 from recordings.topics import HEALTH, MAP_STATE
 
 log = logging.getLogger(__name__)
@@ -203,7 +204,8 @@ class DeliberativeLayer:
 
 class ReactiveLayer:
     """Pose and plan to actuator command, every control tick: the Controller and its safety
-    supervisor (and the AS state machine it steps). ``configured_mission``: the mission the
+    supervisor (and the AS state machine it steps), given the pose carried forward to the tick
+    (:func:`controller.pose_prediction.predict_pose`). ``configured_mission``: the mission the
     run was configured for (a different ``MISSION_SELECT`` is logged once)."""
 
     def __init__(self, controller: Any, control_rate_hz: float,
@@ -258,7 +260,8 @@ class ReactiveLayer:
         if pose is None:
             self.command = ActuatorCommand(now_s, 0.0, 1.0, 0.0, AsState.READY)
             return self.command
-        self.command = self.controller.command(now_s, pose, plan, health, self.remote)
+        moved = predict_pose(pose, now_s, self.controller.config.pose_prediction_max_s)
+        self.command = self.controller.command(now_s, moved, plan, health, self.remote)
         if self.controller.state == AsState.DRIVING:
             self.pose_ages_s.append(now_s - pose.timestamp_s)
             if plan is not None:

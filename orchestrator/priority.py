@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import logging
 import os
 import resource
@@ -37,6 +38,13 @@ MCL_FUTURE = 2
 """``mlockall`` flags (``sys/mman.h``, the same on every Linux architecture)."""
 
 
+@functools.cache
+def _libc() -> ctypes.CDLL | None:
+    """The C library, errno kept (None where there is none to find)."""
+    name = ctypes.util.find_library("c")
+    return None if name is None else ctypes.CDLL(name, use_errno=True)
+
+
 def lock_memory(what: str) -> bool:
     """Lock the calling process's pages in RAM (``mlockall(MCL_CURRENT | MCL_FUTURE)``), as a
     real-time process does: a page the kernel has dropped (a shared library's code, even
@@ -48,8 +56,8 @@ def lock_memory(what: str) -> bool:
     warning and returns False (with a limited lock allowance the process's later allocations
     would fail once past it, so it is not attempted). ``what`` names the process in the log.
     """
-    libc_name = ctypes.util.find_library("c")
-    if not hasattr(os, "geteuid") or libc_name is None:
+    libc = _libc()
+    if not hasattr(os, "geteuid") or libc is None:
         log.warning("cannot lock the %s's memory on this system: its timing depends on the "
                     "kernel keeping its pages in RAM", what)
         return False
@@ -59,7 +67,6 @@ def lock_memory(what: str) -> bool:
                     "with `ulimit -l unlimited`, or give CAP_IPC_LOCK); its timing depends on "
                     "the kernel keeping its pages in RAM", what, soft // 1024)
         return False
-    libc = ctypes.CDLL(libc_name, use_errno=True)
     if libc.mlockall(MCL_CURRENT | MCL_FUTURE) != 0:
         errno = ctypes.get_errno()
         log.warning("memory lock of the %s refused (%s): its timing depends on the kernel "
@@ -71,6 +78,6 @@ def lock_memory(what: str) -> bool:
 
 def unlock_memory() -> None:
     """Undo :func:`lock_memory` (``munlockall``); harmless when nothing is locked."""
-    libc_name = ctypes.util.find_library("c")
-    if libc_name is not None:
-        ctypes.CDLL(libc_name, use_errno=True).munlockall()
+    libc = _libc()
+    if libc is not None:
+        libc.munlockall()

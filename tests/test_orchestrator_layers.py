@@ -90,6 +90,8 @@ class Controller:
         self.state = AsState.READY
         self.missions: list[Mission] = []
         self.remotes: list[RemoteStop | None] = []
+        self.poses: list[PoseEstimate] = []
+        self.config = SimpleNamespace(pose_prediction_max_s=0.3)
 
     def select_mission(self, mission: Mission) -> None:
         self.missions.append(mission)
@@ -97,6 +99,7 @@ class Controller:
     def command(self, now_s: float, pose: PoseEstimate, plan: Any, health: Health,
                 remote: RemoteStop | None) -> ActuatorCommand:
         self.remotes.append(remote)
+        self.poses.append(pose)
         return ActuatorCommand(now_s, 0.2, 0.0, 0.0, self.state)
 
     def as_status(self, now_s: float) -> Any:
@@ -104,6 +107,7 @@ class Controller:
 
 
 def test_the_reactive_layer_takes_the_res_and_the_mission_and_brakes_without_a_pose() -> None:
+    """... and hands the controller the pose carried forward to the tick."""
     controller = Controller()
     layer = ReactiveLayer(controller, 100.0, "trackdrive")
     layer.take([WheelSpeeds(0.0, 1.0, 1.0, 1.0, 1.0), RemoteStop(0.0, False, True),
@@ -119,6 +123,8 @@ def test_the_reactive_layer_takes_the_res_and_the_mission_and_brakes_without_a_p
     assert command.throttle == 0.2 and controller.remotes == [layer.remote]
     assert layer.pose_ages_s == pytest.approx([0.02])
     assert layer.plan_ages_s == pytest.approx([0.25])
+    # the controller steers from where the car is: the pose 0.02 s on at its 5 m/s
+    assert controller.poses[0].x_m == pytest.approx(0.1)
 
 
 class Recorder:
