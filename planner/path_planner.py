@@ -49,6 +49,18 @@ def empty_targets() -> TargetStates:
     return TargetStates(z, z, z, z, z, z)
 
 
+def _cover_table(stop_distance_m: Callable[[float], float] | None, late_s: float
+                 ) -> tuple[FloatArray, FloatArray]:
+    """(room (m), speed (m/s)), both increasing: the highest speed from which the car, driving
+    on for ``late_s`` and then stopping (``stop_distance_m``), stays within the room; empty
+    arrays without a ``stop_distance_m``."""
+    if stop_distance_m is None:
+        return np.zeros(0), np.zeros(0)
+    speed = np.arange(0.0, 60.0, 0.05)
+    room = np.array([v * late_s + stop_distance_m(float(v)) for v in speed])
+    return room, speed
+
+
 class PathPlanner:
     """Plans the car's next manoeuvre from the map state (see the module docstring)."""
 
@@ -68,6 +80,8 @@ class PathPlanner:
         self._lock_cap = steering_lock_cap(car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
                                            c.crawl_speed_mps)
         self.generator = ManoeuvreGenerator(c, car, stop_distance_m)
+        self._cover_room_m, self._cover_speed_mps = _cover_table(stop_distance_m,
+                                                                 c.exploration_late_cover_s)
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)
         top_speed = c.acceleration_max_speed_mps if mission == "acceleration" else c.max_speed_mps
@@ -387,6 +401,12 @@ class PathPlanner:
                 c.two_level_preview_m))
         if exploring:
             extra = np.minimum(extra, c.exploration_speed_mps)
+            if len(self._cover_room_m):
+                # the track ends where it is known: no faster than a plan followed
+                # exploration_late_cover_s late still leaves room for the supervisor's stop
+                remaining = frame.s_m[-1] - frame.s_m
+                extra = np.minimum(extra, np.interp(remaining, self._cover_room_m,
+                                                    self._cover_speed_mps))
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,

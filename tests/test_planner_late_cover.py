@@ -76,3 +76,24 @@ def test_the_supervisor_follows_a_plan_0_3_s_late_at_15_m_s() -> None:
         outcomes.append((ctrl.safety.stop, ctrl.stop_reason))
     assert outcomes[0][0] == StopKind.CONTROLLED and "do not cover a stop" in outcomes[0][1]
     assert outcomes[1][0] == StopKind.NONE, outcomes[1][1]
+
+
+def test_while_exploring_the_speed_leaves_room_for_a_late_stop_before_the_known_end() -> None:
+    """The track is known 12 m ahead: at every point of the profile, driving on for
+    ``exploration_late_cover_s`` and then the supervisor's controlled stop ends before the
+    known end. A planner not told the rule brakes later (its own, harder braking)."""
+    config = AppConfig()
+    x = np.arange(0.0, 12.01, 0.5)
+    frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
+    late_s = config.planner.exploration_late_cover_s
+    safety = config.controller.safety
+    speeds = []
+    for planner in (make_planner(config), PathPlanner(config.planner, config.car)):
+        planner._origin_xy = (0.0, 0.0)  # exploring: the track is known only so far
+        speeds.append(planner._profile(frame))
+    remaining = frame.s_m[-1] - frame.s_m
+    need = np.array([v * late_s + late_stop_distance_m(float(v), safety) for v in speeds[0]])
+    moving = speeds[0] > 0.0
+    assert np.all(need[moving] <= remaining[moving] + 0.05)
+    assert np.all(speeds[0] <= speeds[1] + 1e-9)
+    assert np.any(speeds[0] < speeds[1] - 1.0)
