@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_safety_supervisor import driving_controller, health, pose
 
 from common.messages import Baseframe, Plan, TargetStates
 from controller.safety import StopKind, late_stop_distance_m, manoeuvre_ahead_m
@@ -13,7 +14,6 @@ from orchestrator.config import AppConfig
 from orchestrator.managers import make_planner
 from planner.baseframe import SplineBaseframe
 from planner.path_planner import PathPlanner
-from tests.test_safety_supervisor import driving_controller, health, pose
 
 
 def _straight_manoeuvre(planner: PathPlanner, speed_mps: float, t_s: float) -> Plan:
