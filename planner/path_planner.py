@@ -30,6 +30,7 @@ from planner.speed_profile import (
     SpeedLimits,
     curvature_speed_limit_mps,
     forward_backward_speed_mps,
+    late_cover_table,
     steering_lock_cap,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
@@ -47,18 +48,6 @@ def empty_targets() -> TargetStates:
     """A manoeuvre with no states."""
     z = np.zeros(0)
     return TargetStates(z, z, z, z, z, z)
-
-
-def _cover_table(stop_distance_m: Callable[[float], float] | None, late_s: float
-                 ) -> tuple[FloatArray, FloatArray]:
-    """(room (m), speed (m/s)), both increasing: the highest speed from which the car, driving
-    on for ``late_s`` and then stopping (``stop_distance_m``), stays within the room; empty
-    arrays without a ``stop_distance_m``."""
-    if stop_distance_m is None:
-        return np.zeros(0), np.zeros(0)
-    speed = np.arange(0.0, 60.0, 0.05)
-    room = np.array([v * late_s + stop_distance_m(float(v)) for v in speed])
-    return room, speed
 
 
 class PathPlanner:
@@ -80,7 +69,7 @@ class PathPlanner:
         self._lock_cap = steering_lock_cap(car, c.steer_lock_fraction, c.understeer_rad_per_mps2,
                                            c.crawl_speed_mps)
         self.generator = ManoeuvreGenerator(c, car, stop_distance_m)
-        self._cover_room_m, self._cover_speed_mps = _cover_table(stop_distance_m,
+        self._cover_room_m, self._cover_speed_mps = late_cover_table(stop_distance_m,
                                                                  c.exploration_late_cover_s)
         self.known = (KnownPathMission(mission, c, car) if mission in KNOWN_PATH_MISSIONS
                       else None)

@@ -255,3 +255,15 @@ def min_run_time_s(path_xy: ArrayLike, car: CarConfig, s_from_m: float, s_to_m: 
     mean = np.maximum(0.5 * (v[1:] + v[:-1]), 1e-6)
     t = np.concatenate([[0.0], np.cumsum(ds / mean)])
     return float(np.interp(s_to_m, frame.s_m, t) - np.interp(s_from_m, frame.s_m, t))
+
+
+def late_cover_table(stop_distance_m: Callable[[float], float] | None, late_s: float
+                     ) -> tuple[FloatArray, FloatArray]:
+    """(room (m), speed (m/s)), both increasing: the highest speed from which the car, driving
+    on for ``late_s`` and then stopping (``stop_distance_m``), stays within the room; empty
+    arrays without a ``stop_distance_m``."""
+    if stop_distance_m is None:
+        return np.zeros(0), np.zeros(0)
+    speed = np.arange(0.0, 60.0, 0.05)
+    room = np.array([v * late_s + stop_distance_m(float(v)) for v in speed])
+    return room, speed

@@ -302,7 +302,7 @@ class HardwareEmulator:
 
     def _wait_for_stack(self, timeout_s: float) -> None:
         """Answer the adapter's commands until the stack opens the CAN bus (or ``timeout_s``):
-    slcan's ``O``, or the stack's first frame on a UDP bus."""
+        slcan's ``O``, or the stack's first frame on a UDP bus."""
         if timeout_s <= 0.0:
             return
         end = time.monotonic() + timeout_s

@@ -13,7 +13,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 OURS = {"common", "orchestrator", "sensors", "mapper", "planner", "controller", "visualiser",
         "recordings", "simulator", "bench", "scale", "main", "support",
-        "planner_closed_loop_helpers"}
+        "planner_closed_loop_helpers", "safety_helpers"}
 
 
 def _normalise(name: str) -> str:
@@ -61,7 +61,8 @@ def _undeclared(imported: dict[str, set[str]], declared: set[str]) -> dict[str, 
 
 def _product_files() -> list[Path]:
     files = [ROOT / "main.py"]
-    for package in sorted(OURS - {"main", "support", "planner_closed_loop_helpers"}):
+    for package in sorted(OURS - {"main", "support", "planner_closed_loop_helpers",
+                                  "safety_helpers"}):
         files += [p for p in (ROOT / package).rglob("*.py") if not p.name.endswith("_pb2.py")]
     return files
 

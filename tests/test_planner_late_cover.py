@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_safety_supervisor import driving_controller, health, pose
+from safety_helpers import driving_controller, health, pose
 
 from common.messages import Baseframe, Plan, TargetStates
 from controller.safety import StopKind, late_stop_distance_m, manoeuvre_ahead_m

@@ -6,54 +6,12 @@ import math
 
 import numpy as np
 import pytest
+from safety_helpers import driving_controller, health, pose, straight_plan
 
-from common.messages import (
-    AsState,
-    Baseframe,
-    Health,
-    Plan,
-    PoseEstimate,
-    RemoteStop,
-    SourceHealth,
-    TargetStates,
-)
+from common.messages import AsState, PoseEstimate, RemoteStop
 from controller.controller import Controller
 from controller.safety import SafetySupervisor, StopKind
 from orchestrator.config import AppConfig
-
-
-def straight_plan(t: float, lap: int = 0, speed: float = 10.0) -> Plan:
-    x = np.arange(0.0, 300.0, 0.5)
-    z = np.zeros_like(x)
-    targets = TargetStates(t + x / speed, x, z, z, np.full_like(x, speed), z)
-    frame = Baseframe(x, x, z, z, z, closed=False, length_m=300.0)
-    return Plan(t, frame, targets, speed, lap=lap, chosen_index=0)
-
-
-def pose(t: float, x: float = 10.0, y: float = 0.0, v: float = 10.0,
-         sigma: float = 0.05) -> PoseEstimate:
-    cov = np.diag([sigma**2, sigma**2, 0.01**2])
-    return PoseEstimate(t, x, y, 0.0, v, 0.0, 0.0, cov)
-
-
-def health(t: float, stale: tuple[str, ...] = ()) -> Health:
-    sources = tuple(SourceHealth(t, name, True, 10.0, 0.01, 0, name in stale)
-                    for name in ("gps", "imu", "lidar", "camera"))
-    return Health(t, sources)
-
-
-def driving_controller(config: AppConfig | None = None) -> Controller:
-    config = config or AppConfig()
-    ctrl = Controller(config.controller, config.car, laps=3)
-    assert ctrl.state == AsState.OFF
-    ctrl.command(0.0, pose(0.0), straight_plan(0.0), health(0.0), None)
-    assert ctrl.state == AsState.READY  # auto-armed by the first plan with a baseframe
-    cmd = ctrl.command(0.01, pose(0.01), straight_plan(0.01), health(0.01), None)
-    assert cmd.brake > 0.0  # brakes held in READY
-    ctrl.command(0.02, pose(0.02), straight_plan(0.02), health(0.02),
-                 RemoteStop(0.02, False, True))
-    assert ctrl.state == AsState.DRIVING
-    return ctrl
 
 
 def test_res_go_starts_and_the_car_drives() -> None:
