@@ -225,7 +225,8 @@ class CanReceiver(Receiver):
             try:
                 msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data,
                                   is_extended_id=frame.is_extended_id, check=True)
-                self._sent_ids.add((frame.arbitration_id, frame.is_extended_id))
+                if self._echoes_own:
+                    self._sent_ids.add((frame.arbitration_id, frame.is_extended_id))
                 if self._slcan is not None:
                     self._slcan.send(msg)
                 else:
