@@ -118,9 +118,11 @@ class UkfInputs:
         self.ukf.predict(imu)
 
     def update_odometry(self, wheels: WheelSpeeds, steer: SteeringAngle | None) -> None:
+        self.ukf.catch_up(wheels.timestamp_s)
         self.ukf.update_odometry(wheels, steer)
 
     def update_gnss(self, xy_world_m: FloatArray, fix: GpsFix, frame: WorldFrame) -> None:
+        self.ukf.catch_up(fix.timestamp_s)
         cov = ukf_gnss.receiver_covariance(self.ukf.config, fix, frame.start_yaw_enu_rad)
         self.ukf.update_gnss_position(xy_world_m, cov)
         course = (frame.enu_yaw_to_world_yaw(fix.course_rad)
@@ -137,7 +139,10 @@ class UkfInputs:
 
     def compensated(self, cones: Sequence[ConeDetection], timestamp_s: float) -> FloatArray:
         """The detections (N, 2) moved to the UKF's own time (its last IMU sample, up to one
-        IMU period before the sweep's stamp), where they are compared with its pose."""
+        IMU period before the sweep's stamp), where they are compared with its pose. After
+        an IMU silent for longer, the UKF is first caught up to the sweep
+        (:meth:`UkfLocaliser.catch_up`)."""
+        self.ukf.catch_up(timestamp_s)
         x = self.ukf.x
         t_ref = self.ukf.t_s if self.ukf.t_s is not None else timestamp_s
         return compensate_motion(cones, t_ref, float(x[3]), float(x[4]), float(x[5]))

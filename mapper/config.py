@@ -110,6 +110,13 @@ class UkfConfig:
     yaw_model_sigma_rad_rts: float = 1.0e-4
     """With bias states: yaw process noise (rad per sqrt(s)) beyond the gyro's."""
     max_predict_dt_s: float = 0.05
+    held_gyro_sigma_radps: float = 0.5
+    """Without IMU samples (a stalled serial link) the prediction holds the last sample's
+    input: the yaw rate's sigma (rad/s) added (as a variance) per ``max_predict_dt_s`` held,
+    for how far the true yaw rate may have moved; the yaw's uncertainty grows with it."""
+    held_accel_sigma_mps2: float = 5.0
+    """The same for the acceleration (m/s^2): each held step of dt adds (this x dt)^2 to the
+    speeds' variances."""
     initial_position_sigma_m: float = 0.01
     initial_yaw_sigma_rad: float = 0.001
     initial_velocity_sigma_mps: float = 0.05

@@ -53,16 +53,30 @@ from common.messages import (
     SteeringAngle,
     WheelSpeeds,
 )
-from mapper import ukf_gnss
+from mapper import ukf_gnss, ukf_prediction
 from mapper.config import UkfConfig
 from mapper.imu_calibration import StaticCalibration
 from mapper.motion import rear_slip_velocity
 from mapper.ukf_cones import ConeMapUpdate
-from mapper.ukf_state import IBAX, IBAY, IBG, IVX, IVY, IW, IX, IY, IYAW, N_BIAS, N_STATE
+from mapper.ukf_state import (
+    IBAX,
+    IBAY,
+    IBG,
+    IVX,
+    IVY,
+    IW,
+    IX,
+    IY,
+    IYAW,
+    N_BIAS,
+    N_STATE,
+    wrap_yaw,
+)
 
 log = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
+
 
 
 class UkfLocaliser:
@@ -87,6 +101,8 @@ class UkfLocaliser:
         self.x = np.zeros(n)
         self.P = np.zeros((n, n))
         self.t_s: float | None = None
+        self._last_input: tuple[float, float, float] | None = None
+        """The last IMU sample's (ax, ay, gyro) as :meth:`predict_input` takes them."""
         self.stats: dict[str, Counter[str]] = {}
         self.gyro_bias_radps = 0.0
         self.accel_bias_mps2 = np.zeros(2)
@@ -292,7 +308,7 @@ class UkfLocaliser:
         """Weighted mean and covariance of points (13, m); angles averaged about point 0."""
         dev_ref = chi.copy()
         for c in angle_cols:
-            dev_ref[:, c] = chi[0, c] + _wrap(chi[:, c] - chi[0, c])
+            dev_ref[:, c] = chi[0, c] + wrap_yaw(chi[:, c] - chi[0, c])
         mean = self.wm @ dev_ref
         d = dev_ref - mean
         return mean, (d.T * self.wc) @ d
@@ -347,7 +363,6 @@ class UkfLocaliser:
         if self.calibrating and self._calibrate(imu):
             self.x[IVX:N_STATE] = 0.0
             return
-        dt = min(dt, cfg.max_predict_dt_s)
         gz = imu.gyro_z_radps - self.gyro_bias_radps
         ax = imu.accel_x_mps2 - float(self.accel_bias_mps2[0])
         ay = imu.accel_y_mps2 - float(self.accel_bias_mps2[1])
@@ -357,7 +372,10 @@ class UkfLocaliser:
             # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
             w = gz - float(self.x[IBG]) if self.nb else gz
             ax += w * w * self.car.imu_x_m
-        self.predict_input(ax, ay, gz, dt)
+        if dt > cfg.max_predict_dt_s:
+            self.count("imu", "gap")
+        self._propagate(ax, ay, gz, dt)
+        self._last_input = (ax, ay, gz)
         self.count("imu", "applied")
         if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
             self._last_lateral_s = t
@@ -373,75 +391,27 @@ class UkfLocaliser:
             self.update_linear("lateral", np.array([vy_slip - self.x[IVY]]), H,
                                 np.array([[sigma**2]]), gate=math.inf)
 
+    def catch_up(self, timestamp_s: float) -> None:
+        """Before a wheel, GNSS or LiDAR update at ``timestamp_s``: when the IMU has been
+        silent for more than ``max_predict_dt_s`` before it, propagate to it holding the last
+        IMU sample's input, so the update meets the car where it is (and its samples, when
+        they come back late, are older than the state and skipped)."""
+        if self.t_s is None or self._last_input is None or self.calibrating:
+            return
+        dt = timestamp_s - self.t_s
+        if not dt > self.config.max_predict_dt_s:  # also NaN
+            return
+        self.count("imu", "held")
+        self._propagate(*self._last_input, dt, held=True)
+        self.t_s = timestamp_s
+
+    def _propagate(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float,
+                   held: bool = False) -> None:
+        ukf_prediction.propagate(self, ax_mps2, ay_mps2, gyro_radps, dt_s, held)
+
     def predict_input(self, ax_mps2: float, ay_mps2: float, gyro_radps: float, dt_s: float) -> None:
-        """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro
-        (measured; with bias states, each sigma point subtracts its own biases)."""
-        cfg = self.config
-        chi = self._sigma_points()
-        x, y, yaw, vx, vy, w = chi.T[:N_STATE]
-        biased = self.nb > 0
-        if biased:
-            gyro = gyro_radps - chi[:, IBG]
-            ax = ax_mps2 - chi[:, IBAX]
-            ay = ay_mps2 - chi[:, IBAY]
-        else:
-            gyro, ax, ay = gyro_radps, ax_mps2, ay_mps2  # type: ignore[assignment]
-        c, s = np.cos(yaw), np.sin(yaw)
-        nu = cfg.yaw_rate_blend_nu
-        out = np.empty_like(chi)
-        out[:, IX] = x + (vx * c - vy * s) * dt_s
-        out[:, IY] = y + (vx * s + vy * c) * dt_s
-        out[:, IVX] = vx + (ax + w * vy) * dt_s
-        out[:, IVY] = vy + (ay - w * vx) * dt_s
-        out[:, IW] = nu * w + (1.0 - nu) * gyro
-        # The yaw over the interval with the mean of its two yaw rates (trapezoid): the seed's
-        # yaw += w dt with the previous sample's rate lags the yaw by half an IMU period
-        # (2.5 ms at 200 Hz: 2 mrad at 1 rad/s, as large as the yaw's sigma).
-        out[:, IYAW] = yaw + 0.5 * (w + out[:, IW]) * dt_s
-        out[:, N_STATE:] = chi[:, N_STATE:]  # biases and the GNSS heading offset: constant
-        mean, cov = self._mean_cov(out, (IYAW,))
-        if biased:
-            # The biases are states: only the white noise (and the unmodelled) is process noise.
-            q_acc = cfg.accel_sigma_mps2**2 * dt_s * dt_s + cfg.accel_model_sigma_mps2**2 * dt_s
-            q_yaw = cfg.yaw_model_sigma_rad_rts**2 * dt_s
-        else:
-            q_acc = (cfg.accel_sigma_mps2**2 * dt_s + cfg.accel_bias_sigma_mps2**2) * dt_s
-            q_yaw = cfg.gyro_bias_sigma_radps**2 * dt_s
-        q = [
-            1e-6 * dt_s,
-            1e-6 * dt_s,
-            q_yaw,
-            q_acc,
-            q_acc + cfg.lateral_model_sigma_mps2**2 * dt_s,
-            (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 + nu**2 * 1e-4 * dt_s,
-        ]
-        if biased:
-            q += [cfg.gyro_bias_walk_radps_rths**2 * dt_s,
-                  cfg.accel_bias_walk_mps2_rths**2 * dt_s,
-                  cfg.accel_bias_walk_mps2_rths**2 * dt_s]
-        if self.ih is not None:
-            q.append(0.0)
-        if self.PxL is not None:
-            # The map errors do not move: their cross-covariance goes through the prediction's
-            # statistical linearisation F = P_{x'x} P^-1 (the process noise is independent).
-            dx = chi - self.x
-            dx[:, IYAW] = _wrap(dx[:, IYAW])
-            dy = out - mean
-            dy[:, IYAW] = _wrap(dy[:, IYAW])
-            p_yx = (dy.T * self.wc) @ dx
-            F = scipy.linalg.solve(self.P, p_yx.T, assume_a="pos", check_finite=False).T
-            self.PxL = F @ self.PxL
-        mean[IYAW] = wrap_angle(float(mean[IYAW]))
-        self.x = mean
-        cov[np.diag_indices(self.n)] += q
-        if cfg.use_odometry and cfg.odometry_scale_sigma > 0.0:
-            # The tyre radius is known to a fraction: a systematic along-track speed error that
-            # repeated odometry updates cannot average out. Its position effect is spread as an
-            # equivalent random walk along the heading over odometry_scale_time_s.
-            qa = (cfg.odometry_scale_sigma * float(mean[IVX])) ** 2 * cfg.odometry_scale_time_s
-            c, s = math.cos(float(mean[IYAW])), math.sin(float(mean[IYAW]))
-            cov[:2, :2] += qa * dt_s * np.array([[c * c, c * s], [c * s, s * s]])
-        self.P = 0.5 * (cov + cov.T)
+        """One unscented prediction step (:func:`mapper.ukf_prediction.predict_input`)."""
+        ukf_prediction.predict_input(self, ax_mps2, ay_mps2, gyro_radps, dt_s)
 
     # -- updates ------------------------------------------------------------------------------
 
@@ -490,10 +460,10 @@ class UkfLocaliser:
         z_hat, S = self._mean_cov(Z, angle_rows)
         S = S + R
         dx = chi - self.x
-        dx[:, IYAW] = _wrap(dx[:, IYAW])
+        dx[:, IYAW] = wrap_yaw(dx[:, IYAW])
         dz = Z - z_hat
         for r in angle_rows:
-            dz[:, r] = _wrap(dz[:, r])
+            dz[:, r] = wrap_yaw(dz[:, r])
         Pxz = (dx.T * self.wc) @ dz
         y = z - z_hat
         for r in angle_rows:
@@ -572,10 +542,6 @@ class UkfLocaliser:
         ``cone_sigma_m`` overrides the configured detection noise.
         """
         return self._cones.update(self, cones, cone_map, cones_xy_m, full_update, cone_sigma_m)
-
-
-def _wrap(a: FloatArray) -> FloatArray:
-    return np.mod(a + math.pi, 2.0 * math.pi) - math.pi
 
 
 def _row(i: int, n: int = N_STATE) -> FloatArray:
