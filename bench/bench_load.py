@@ -19,6 +19,8 @@ by more than a timeout is the test machine's, not the stack's), each process's m
 faults, and the stop reason. ``--runs N`` runs N pairs one after another (one run says little
 on a loaded machine) and counts the clean ones; last line
 ``control_p99_over_period_ms=<worst x> laps=<fewest> cones_hit=<most> clean=<k>/<N>``.
+``--serial-stall T:D`` has the emulator hold its GPS and IMU bytes from T for D seconds, then
+write them at once, as a starved tty worker does (issue 19 saw 0.46 s at 15.6 m/s).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from common.cli_types import non_negative_int, positive_float, positive_int
+from common.cli_types import non_negative_int, positive_float, positive_int, stall_window
 from orchestrator.config import AppConfig
 
 HELP = "emulate + drive on small_track while busy processes load the cores: laps, p99s, stop"
@@ -58,6 +60,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "SocketCAN; default) or an slcan adapter on a pseudo-terminal")
     parser.add_argument("--runs", type=positive_int, default=1,
                         help="pairs run one after another (default 1); prints the clean count")
+    parser.add_argument("--serial-stall", type=stall_window, action="append", default=[],
+                        metavar="T:D",
+                        help="the emulator holds the GPS and IMU bytes from T for D s of its "
+                             "clock, then writes them at once (emulate --serial-stall)")
 
 
 def _spin() -> None:
@@ -132,6 +138,9 @@ def _report(result: dict[str, Any], args: argparse.Namespace) -> tuple[float, in
     print(f"major page faults   control {faults.get('control')}, executive "
           f"{faults.get('executive')}, emulator {emulator.get('major_page_faults')} (memory "
           f"locked: {timing.get('memory_locked')})")
+    if args.serial_stall:
+        print(f"serial stalls       {args.serial_stall} (s): "
+              f"{emulator.get('serial_bytes_held')} GPS and IMU bytes held")
     print(f"stop reason         {result['drive'].get('stop_reason')}", flush=True)
     run_laps = int(result["drive"].get("laps_completed") or 0)
     run_cones = int(result["emulator"].get("cones_hit") or 0)
@@ -148,7 +157,9 @@ def _pair(folder: Path, args: argparse.Namespace) -> dict[str, Any]:
                        "--summary", str(emulator_json), "--seconds", str(args.seconds),
                        "--workdir", str(folder / "ports"),
                        "--rt-priority", str(EMULATOR_RT_PRIORITY),
-                       "--can", args.can], folder, "emulate")
+                       "--can", args.can,
+                       *[f"--serial-stall={t:g}:{d:g}" for t, d in args.serial_stall]],
+                      folder, "emulate")
     end = time.monotonic() + 60.0
     while not car.exists():
         if emulator.poll() is not None or time.monotonic() > end:

@@ -77,6 +77,15 @@ def positive_seconds(text: str) -> float:
     return _float(text, 0.0, inclusive=False, unit=" s")
 
 
+def stall_window(text: str) -> tuple[float, float]:
+    """A window ``T:D`` of a clock: a start T >= 0 s and a duration D > 0 s."""
+    start, sep, duration = text.partition(":")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"must be T:D (start and duration, s), got {text!r}")
+    return (_float(start, 0.0, inclusive=True, unit=" s"),
+            _float(duration, 0.0, inclusive=False, unit=" s"))
+
+
 def size_wxh(text: str, smallest_px: int = 16) -> tuple[int, int]:
     """A frame size ``WxH`` in pixels, each side >= ``smallest_px``."""
     try:

@@ -15,6 +15,7 @@ from common.cli_types import (
     positive_int,
     positive_seconds,
     size_wxh,
+    stall_window,
 )
 from common.errors import FsdError
 from orchestrator.config import MISSIONS, AppConfig
@@ -129,6 +130,11 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     emulate.add_argument("--can", choices=("slcan", "udp"), default="slcan",
                          help="the CAN bus: an slcan adapter on a pseudo-terminal (default), or "
                               "python-can's udp_multicast (kernel sockets, as SocketCAN)")
+    emulate.add_argument("--serial-stall", type=stall_window, action="append", default=[],
+                         metavar="T:D",
+                         help="hold the GPS and IMU bytes from T for D seconds of the "
+                              "emulator's clock, then write them at once (a busy machine's tty "
+                              "worker); repeatable")
     emulate.set_defaults(func=_emulate)
 
     _register_render(subparsers, common)
@@ -268,6 +274,7 @@ def _emulate(args: argparse.Namespace, config: AppConfig) -> int:
                               seconds=args.seconds,
                               write_config=args.write_config, summary=args.summary,
                               workdir=args.workdir, seed=args.seed, can=args.can,
+                              serial_stalls=tuple(args.serial_stall),
                               mission=config.mission.mission,
                               exploration=config.mission.exploration,
                               ready_wait_s=config.controller.as_state.min_ready_s,
