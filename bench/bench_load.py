@@ -20,7 +20,8 @@ faults, and the stop reason. ``--runs N`` runs N pairs one after another (one ru
 on a loaded machine) and counts the clean ones; last line
 ``control_p99_over_period_ms=<worst x> laps=<fewest> cones_hit=<most> clean=<k>/<N>``.
 ``--serial-stall T:D`` has the emulator hold its GPS and IMU bytes from T for D seconds, then
-write them at once, as a starved tty worker does (issue 19 saw 0.46 s at 15.6 m/s).
+write them at once: a stalled serial link (issue 19 saw 0.46 s at 15.6 m/s under load); drive's
+readers see the silence, so a stall longer than the IMU's timeout ends in a stop.
 """
 
 from __future__ import annotations

@@ -133,8 +133,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     emulate.add_argument("--serial-stall", type=stall_window, action="append", default=[],
                          metavar="T:D",
                          help="hold the GPS and IMU bytes from T for D seconds of the "
-                              "emulator's clock, then write them at once (a busy machine's tty "
-                              "worker); repeatable")
+                              "emulator's clock, then write them at once (a stalled serial "
+                              "link); repeatable")
     emulate.set_defaults(func=_emulate)
 
     _register_render(subparsers, common)

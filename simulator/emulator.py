@@ -90,8 +90,9 @@ class EmulatorOptions:
     ``udp_multicast`` bus, kernel sockets as the car's SocketCAN (:class:`UdpCanBus`)."""
     serial_stalls: tuple[tuple[float, float], ...] = ()
     """(start_s, duration_s) windows of the emulator's clock in which the GPS and IMU bytes are
-    held back, then written in one burst: what a busy machine's tty worker does to the car's
-    serial links (issue 19: 0.46 s at 15.6 m/s)."""
+    held back, then written in one burst: a stalled serial link (issue 19 saw 0.46 s at
+    15.6 m/s under load). drive's readers see the silence, so a stall longer than a sensor's
+    timeout ends in a stop; a starved reader thread (the load's own case) they cannot mimic."""
 
 
 class HardwareEmulator:

@@ -1,6 +1,6 @@
 """``emulate --serial-stall T:D``: the emulated car's GPS and IMU bytes held back over a window
-of its clock, then written in one burst, as a busy machine's tty worker delivers them (issue
-19); read through the pseudo-terminals' stack end with pyserial, as drive reads them."""
+of its clock, then written in one burst, as a stalled serial link delivers them (issue 19);
+read through the pseudo-terminals' stack end with pyserial, as drive reads them."""
 
 from __future__ import annotations
 
