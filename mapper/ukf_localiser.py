@@ -78,7 +78,6 @@ log = logging.getLogger(__name__)
 FloatArray = NDArray[np.float64]
 
 
-
 class UkfLocaliser:
     """Seed 001's UKF. ``stats[sensor][outcome]`` counts applied / rejected / skipped updates."""
 
