@@ -97,18 +97,36 @@ def _jacobian(centre: FloatArray, normals: FloatArray, alpha: FloatArray, closed
                       shape=(n, n))
 
 
+def _next(a: FloatArray) -> FloatArray:
+    """``np.roll(a, -1)`` of a 1-D array (element i is a[i + 1], cyclic), without roll's
+    per-call overhead (the racing line calls this hundreds of thousands of times)."""
+    out = np.empty_like(a)
+    out[:-1] = a[1:]
+    out[-1:] = a[:1]
+    return out
+
+
+def _prev(a: FloatArray) -> FloatArray:
+    """``np.roll(a, 1)`` of a 1-D array (element i is a[i - 1], cyclic)."""
+    out = np.empty_like(a)
+    out[1:] = a[:-1]
+    out[:1] = a[-1:]
+    return out
+
+
 def _menger_xy(x: FloatArray, y: FloatArray, closed: bool) -> FloatArray:
     """:func:`planner.track_model.menger_curvature` of the polyline (x, y) (N,) each, bit for
     bit (the same operations on each element), with the coordinates apart and each segment's
     difference and length computed once (point i's segment in is point i-1's segment out)."""
-    ex = np.roll(x, -1) - x  # c - b at each point: point i to i+1
-    ey = np.roll(y, -1) - y
-    bx, by = np.roll(ex, 1), np.roll(ey, 1)  # b - a: point i-1 to i
-    acx = np.roll(x, -1) - np.roll(x, 1)
-    acy = np.roll(y, -1) - np.roll(y, 1)
+    x_next, y_next = _next(x), _next(y)
+    ex = x_next - x  # c - b at each point: point i to i+1
+    ey = y_next - y
+    bx, by = _prev(ex), _prev(ey)  # b - a: point i-1 to i
+    acx = x_next - _prev(x)
+    acy = y_next - _prev(y)
     cross = bx * ey - by * ex
     out_len = np.sqrt(ex * ex + ey * ey)
-    denom = np.roll(out_len, 1) * out_len * np.sqrt(acx * acx + acy * acy)
+    denom = _prev(out_len) * out_len * np.sqrt(acx * acx + acy * acy)
     kappa: FloatArray = 2.0 * cross / np.maximum(denom, 1e-12)
     if not closed and len(x) >= 3:
         kappa[0], kappa[-1] = kappa[1], kappa[-2]
