@@ -138,9 +138,8 @@ class ExecutiveLayer:
               ) -> list[Reading]:
         """Record the raw units and the GNSS fixes; the readings not older than
         ``stale_input_s`` at ``now_s`` (s), the rest counted in :attr:`rejected`."""
-        if self.recorder is not None:
-            for unit in raw:
-                self.recorder.write_raw(unit)
+        if self.recorder is not None and raw:
+            self.recorder.write_raw_many(raw)
         limit = now_s - self.stale_input_s
         fresh: list[Reading] = []
         for reading in readings:

@@ -11,7 +11,9 @@ class RecordingConfig:
 
     enabled: bool = True
     queue_length: int = 20000
-    """Messages the recorder's queue holds; when it is full, new messages are dropped (counted)."""
+    """Messages the recorder's queue holds (a tick's raw units go in as one batch, but each
+    counts); when it is full, new messages are dropped (counted), or, when recording a
+    simulation or replay, the caller waits for room."""
     chunk_duration_s: float = 0.4
     """A chunk is closed (compressed, written, flushed) once it spans this much log time or has
     been open this long on the wall clock: at most about this much is lost on a hard kill

@@ -3,6 +3,8 @@
 The caller's side (:meth:`Recorder.write`, :meth:`Recorder.write_raw`, ...) only puts a reference
 to the (immutable) message on a bounded queue and returns: it never blocks and never converts
 (unless made with ``blocking=True``, for simulation, where it waits for room instead of dropping).
+:meth:`Recorder.write_raw_many` queues a tick's raw units as one item (one put, one wake-up of
+the writer), each unit still its own message in the file and in the queue's bound.
 One writer thread converts with :mod:`recordings.codec`, serialises, and writes through ``mcap``'s
 ``Writer`` with each protobuf schema registered once (``mcap_protobuf``'s ``register_schema``).
 When the queue is full the message is dropped, counted in :attr:`Recorder.dropped` and logged.
@@ -26,7 +28,7 @@ import os
 import queue
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -67,10 +69,22 @@ def _checked_ns(t_s: float) -> int:
 
 @dataclass(frozen=True, slots=True)
 class _Item:
-    kind: str  # "msg", "proto", "gps", "meta"
+    kind: str  # "msg", "proto", "gps", "meta", "raws" (payload: a tuple of raw units)
     topic: str
     payload: Any
     log_time_s: float
+
+
+def _unbatched(item: _Item) -> Iterator[_Item]:
+    """The item itself, or each raw unit of a ``raws`` batch as its own item."""
+    if item.kind != "raws":
+        yield item
+        return
+    for raw in item.payload:
+        try:
+            yield _Item("msg", topics.raw_topic(raw), raw, raw.timestamp_s)
+        except AttributeError:  # not a raw unit: fails (and is counted) in _handle
+            yield _Item("msg", "/raw/unknown", raw, math.nan)
 
 
 class Recorder:
@@ -141,7 +155,12 @@ class Recorder:
         self._chunk_opened_wall_s = 0.0
         self._last_scene_ns: int | None = None
         self._trace = foxglove_views.TraceSegments()
-        self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, self.config.queue_length))
+        # The queue itself is unbounded; _reserve bounds the messages in it (a tick's raw units
+        # are one item), so a full queue holds queue_length messages however they are batched.
+        self._queue: queue.SimpleQueue[_Item] = queue.SimpleQueue()
+        self._room = threading.Condition()
+        self._queued = 0
+        self._capacity = max(1, self.config.queue_length)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="recorder", daemon=True)
         self._thread.start()
@@ -161,6 +180,14 @@ class Recorder:
         """Queue a raw unit on its source's topic (see :func:`topics.raw_topic`) at its time."""
         return self._put(_Item("msg", topics.raw_topic(raw), raw, raw.timestamp_s))
 
+    def write_raw_many(self, units: Sequence[RawBytes | CanFrame]) -> bool:
+        """Queue raw units (each on its source's topic at its time) as one queue item: a
+        tick's units cost the caller one put, not one each. Returns False when they were
+        dropped (each counted in :attr:`dropped`)."""
+        if not units:
+            return True
+        return self._put(_Item("raws", "", tuple(units), 0.0), len(units))
+
     def write_gps_fix(self, fix: GpsFix) -> bool:
         """Queue a parsed GNSS fix for ``/foxglove/gps`` (``foxglove.LocationFix``)."""
         if not self.config.foxglove:
@@ -179,23 +206,13 @@ class Recorder:
         """Listener form of :meth:`write`."""
         return self.write(topic, message, log_time_s)
 
-    def _put(self, item: _Item) -> bool:
-        if not self._closed:
-            try:
-                if not self.blocking:
-                    self._queue.put_nowait(item)
-                    return True
-                while True:
-                    try:
-                        self._queue.put(item, timeout=0.5)
-                        return True
-                    except queue.Full:
-                        if not self._thread.is_alive():
-                            raise
-            except queue.Full:
-                pass
+    def _put(self, item: _Item, count: int = 1) -> bool:
+        """Queue ``item`` holding ``count`` messages; False (each counted) when dropped."""
+        if not self._closed and self._reserve(count):
+            self._queue.put(item)
+            return True
         with self._lock:
-            self.dropped += 1
+            self.dropped += count
             dropped = self.dropped
             report = dropped >= self._next_drop_report
             if report:
@@ -203,13 +220,31 @@ class Recorder:
         if report:
             reason = "recorder closed" if self._closed else "queue full"
             log.warning("recorder dropped %d message(s) so far (%s; last on %s)",
-                        dropped, reason, item.topic)
+                        dropped, reason, item.topic or "raw units")
         return False
+
+    def _reserve(self, count: int) -> bool:
+        """Room in the queue for ``count`` more messages: at once, or (``blocking``) once the
+        writer has taken enough; False when there is none (or the writer thread is gone). A
+        batch larger than the whole queue goes into an empty one."""
+        with self._room:
+            while self._queued + count > self._capacity and self._queued > 0:
+                if not self.blocking or not self._thread.is_alive():
+                    return False
+                self._room.wait(0.5)
+            self._queued += count
+            return True
+
+    def _taken(self, item: _Item) -> None:
+        """The writer took ``item`` off the queue: its messages no longer count there."""
+        with self._room:
+            self._queued -= len(item.payload) if item.kind == "raws" else 1
+            self._room.notify_all()
 
     @property
     def queued(self) -> int:
         """Messages waiting for the writer thread."""
-        return self._queue.qsize()
+        return self._queued
 
     # ------------------------------------------------------------------------------------------
     # Closing
@@ -229,7 +264,7 @@ class Recorder:
         if self._thread.is_alive():
             log.error("recorder thread did not finish within %.1f s; %d message(s) unwritten; "
                       "%s is left without its summary", self.config.stop_timeout_s,
-                      self._queue.qsize(), self.path)
+                      self._queued, self.path)
             return
         if self.dropped:
             log.warning("recorder dropped %d message(s) in total", self.dropped)
@@ -267,10 +302,12 @@ class Recorder:
                         break
                     self._maybe_close_chunk(None)
                     continue
-                try:
-                    self._handle(item)
-                except Exception as exc:  # noqa: BLE001 (one bad message must not stop recording)
-                    self._count_error(item, exc)
+                self._taken(item)
+                for one in _unbatched(item):
+                    try:
+                        self._handle(one)
+                    except Exception as exc:  # noqa: BLE001 (a bad message must not stop recording)
+                        self._count_error(one, exc)
         finally:
             self._finish()
 

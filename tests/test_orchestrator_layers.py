@@ -132,8 +132,8 @@ class Recorder:
         self.raw: list[Any] = []
         self.fixes: list[GpsFix] = []
 
-    def write_raw(self, unit: Any) -> None:
-        self.raw.append(unit)
+    def write_raw_many(self, units: Any) -> None:
+        self.raw.extend(units)
 
     def write_gps_fix(self, fix: GpsFix) -> None:
         self.fixes.append(fix)

@@ -141,6 +141,48 @@ def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
     assert [t for t, _, _ in Player(path)] == [0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
 
 
+def test_a_batch_of_raw_units_is_one_queue_item_and_its_drops_count_each_unit(
+        tmp_path: Path) -> None:
+    path = tmp_path / "batches.mcap"
+    recorder = Recorder(path, RecordingConfig(queue_length=1))
+    gate = threading.Event()
+    taken = threading.Event()
+    handle = recorder._handle
+
+    def slow_handle(item: object) -> None:
+        taken.set()
+        gate.wait(30.0)
+        handle(item)  # type: ignore[arg-type]
+
+    recorder._handle = slow_handle  # type: ignore[method-assign]
+
+    def batch(t0: float, n: int) -> list[CanFrame]:
+        return [CanFrame(t0 + 0.001 * i, 0x20, bytes([i])) for i in range(n)]
+
+    assert recorder.write_raw_many(batch(0.0, 3))
+    assert taken.wait(10.0)  # the writer thread holds the first batch's first unit
+    assert recorder.write_raw_many(batch(1.0, 4))  # the one queue slot
+    assert recorder.write_raw_many(batch(2.0, 7)) is False
+    assert recorder.dropped == 7
+    assert recorder.write_raw_many([]) and recorder.dropped == 7
+    gate.set()
+    recorder.close()
+    times = [t for t, _, _ in Player(path)]
+    assert times == pytest.approx([0.0, 0.001, 0.002, 1.0, 1.001, 1.002, 1.003])
+
+
+def test_a_bad_unit_in_a_batch_is_counted_and_the_rest_recorded(tmp_path: Path) -> None:
+    path = tmp_path / "bad_batch.mcap"
+    units = [RawBytes(0.1, "gps", b"$GPGGA\r\n"), RawBytes(float("nan"), "imu", b"\xfa"),
+             "not a unit", CanFrame(0.3, 0x100, b"\x01"), RawBytes(0.4, "lidar", b"\xff")]
+    with Recorder(path) as recorder:
+        assert recorder.write_raw_many(units)  # type: ignore[arg-type]
+    assert recorder.errors == 2 and recorder.dropped == 0
+    out = list(Player(path))
+    assert [topic for _, topic, _ in out] == ["/gps/nmea", "/can/frame", "/lidar/packet"]
+    assert [t for t, _, _ in out] == pytest.approx([0.1, 0.3, 0.4], abs=1e-9)
+
+
 def test_blocking_recorder_loses_nothing(tmp_path: Path) -> None:
     path = tmp_path / "blocking.mcap"
     with Recorder(path, RecordingConfig(queue_length=2), blocking=True) as recorder:
