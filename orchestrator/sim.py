@@ -79,6 +79,9 @@ class SimOptions:
     """(host, port) of the Foxglove live view (``--live``); None: no live view."""
     end_at_handover: bool = False
     """End the run when the exploration lap is over (at the RES go): stop reason 'handover'."""
+    artifacts: bool = True
+    """Write the run log, the plots and ``report.html`` (False: only ``summary.json``, for a
+    campaign's runs, whose folders are not kept; the plots take about a second a run)."""
 
 
 def default_out_dir(root: Path = Path("runs")) -> Path:
@@ -174,10 +177,11 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if live is not None:
         summary["live"] = live.stats()
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    runner.log.save(out_dir / "run_log.npz")
-    progress_log.info("sim: writing the plots and report.html")
-    _plots(out_dir, runner, track)
-    _report(out_dir, summary)
+    if options.artifacts:
+        runner.log.save(out_dir / "run_log.npz")
+        progress_log.info("sim: writing the plots and report.html")
+        _plots(out_dir, runner, track)
+        _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
 

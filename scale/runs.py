@@ -120,8 +120,8 @@ def configured(config: AppConfig, setting: tuple[tuple[str, Any], ...],
 
 
 def run_one(config: AppConfig, spec: RunSpec) -> dict[str, Any]:
-    """Run one closed-loop sim (no rendering, no recording) and return its row plus the full
-    summary under ``"summary"`` (None when the run failed)."""
+    """Run one closed-loop sim (no rendering, no recording, no plots) and return its row plus
+    the full summary under ``"summary"`` (None when the run failed)."""
     from orchestrator.sim import SimOptions, run_sim
 
     root, progress = logging.getLogger(), logging.getLogger("progress")
@@ -136,7 +136,8 @@ def run_one(config: AppConfig, spec: RunSpec) -> dict[str, Any]:
         with tempfile.TemporaryDirectory(prefix="campaign_") as tmp:
             summary = run_sim(run_config, SimOptions(
                 track=spec.track, laps=spec.laps, seed=spec.seed, mission=spec.mission,
-                render=False, record=False, out_dir=Path(tmp), faults=list(spec.faults)))
+                render=False, record=False, out_dir=Path(tmp), faults=list(spec.faults),
+                artifacts=False))
         summary.pop("out_dir", None)
     except Exception as exc:  # a run that fails is a row, not the end of the campaign
         error = f"{type(exc).__name__}: {exc}".splitlines()[0]

@@ -9,19 +9,21 @@ import pytest
 from support.shared_data import shared_path
 
 
-def _run(mission: str, tmp_path) -> dict:  # type: ignore[no-untyped-def]
+def _run(mission: str, tmp_path, artifacts: bool = True) -> dict:  # type: ignore[no-untyped-def]
     from orchestrator.config import AppConfig
     from orchestrator.sim import SimOptions, run_sim
 
     track = str(shared_path("tracks", "eufs", f"{mission}.csv"))
     return run_sim(AppConfig(), SimOptions(track=track, seed=3, mission=mission, render=False,
-                                           record=False, out_dir=tmp_path))
+                                           record=False, out_dir=tmp_path,
+                                           artifacts=artifacts))
 
 
 @pytest.mark.shared_data("tracks/eufs/acceleration.csv")
 def test_acceleration_from_standstill_down_the_straight_and_stopped_in_the_run_off(
         tmp_path) -> None:
-    summary = _run("acceleration", tmp_path)
+    summary = _run("acceleration", tmp_path, artifacts=False)  # as a campaign runs it
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["summary.json"]
     assert summary["mission"] == "acceleration"
     assert summary["finished"], summary["stop_reason"]
     assert summary["cones_hit"] == 0
@@ -39,6 +41,7 @@ def test_acceleration_from_standstill_down_the_straight_and_stopped_in_the_run_o
 @pytest.mark.shared_data("tracks/eufs/skidpad.csv")
 def test_skidpad_two_right_two_left_timed_on_the_second_of_each(tmp_path) -> None:
     summary = _run("skidpad", tmp_path)
+    assert {"summary.json", "report.html", "run_log.npz"} <= {p.name for p in tmp_path.iterdir()}
     assert summary["mission"] == "skidpad"
     assert summary["finished"], summary["stop_reason"]
     assert summary["cones_hit"] == 0
