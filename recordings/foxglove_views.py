@@ -69,22 +69,51 @@ def _pose(x_m: float, y_m: float, z_m: float = 0.0, yaw_rad: float = 0.0) -> fg.
     )
 
 
+def _cone(x_m: float, y_m: float, colour: int, size: int,
+          alpha: float | None = None) -> fg.CylinderPrimitive:
+    diameter_m, height_m = CONE_DIMENSIONS_M.get(int(size), CONE_DIMENSIONS_M[0])
+    return fg.CylinderPrimitive(
+        pose=_pose(x_m, y_m, 0.5 * height_m),
+        size=fg.Vector3(x=diameter_m, y=diameter_m, z=height_m),
+        bottom_scale=1.0,
+        top_scale=0.15,
+        color=_color(CONE_RGBA.get(int(colour), CONE_RGBA[0]), alpha),
+    )
+
+
 def _cones(
     xy_m: np.ndarray, colours: Iterable[int], sizes: Iterable[int], alpha: float | None = None
 ) -> list[fg.CylinderPrimitive]:
-    out = []
-    for (x, y), colour, size in zip(xy_m.tolist(), colours, sizes, strict=True):
-        diameter_m, height_m = CONE_DIMENSIONS_M.get(int(size), CONE_DIMENSIONS_M[0])
-        out.append(
-            fg.CylinderPrimitive(
-                pose=_pose(x, y, 0.5 * height_m),
-                size=fg.Vector3(x=diameter_m, y=diameter_m, z=height_m),
-                bottom_scale=1.0,
-                top_scale=0.15,
-                color=_color(CONE_RGBA.get(int(colour), CONE_RGBA[0]), alpha),
-            )
-        )
-    return out
+    return [_cone(x, y, colour, size, alpha)
+            for (x, y), colour, size in zip(xy_m.tolist(), colours, sizes, strict=True)]
+
+
+class ConeDrawer:
+    """The cones of map states as cylinder primitives, each made once per (position to the
+    millimetre, colour, size) and reused: a map's cones barely move from one map state to the
+    next, and making them was most of a map scene's cost (about 1 ms for 100 cones, against
+    0.1 ms reused). Cones are drawn at their position rounded to the millimetre. At most
+    ``limit`` primitives are kept (all dropped when full). For one thread."""
+
+    def __init__(self, limit: int = 20000) -> None:
+        self.limit = limit
+        self._made: dict[tuple[int, int, int, int], fg.CylinderPrimitive] = {}
+
+    def __call__(self, xy_m: np.ndarray, colours: Iterable[int],
+                 sizes: Iterable[int]) -> list[fg.CylinderPrimitive]:
+        """Primitives of cones at ``xy_m`` (N, 2) (m) with their colour and size classes."""
+        if len(self._made) > self.limit:
+            self._made.clear()
+        mm = np.rint(np.asarray(xy_m, dtype=np.float64).reshape(-1, 2) * 1000.0)
+        out = []
+        for (x, y), colour, size in zip(mm.astype(np.int64).tolist(), colours, sizes,
+                                        strict=True):
+            key = (x, y, int(colour), int(size))
+            cone = self._made.get(key)
+            if cone is None:
+                cone = self._made[key] = _cone(x * 1e-3, y * 1e-3, colour, size)
+            out.append(cone)
+        return out
 
 
 def _line(
@@ -105,16 +134,19 @@ def map_scene(
     car_length_m: float = 2.9,
     car_width_m: float = 1.4,
     rear_overhang_m: float = 0.65,
+    drawer: ConeDrawer | None = None,
 ) -> fg.SceneUpdate:
-    """Cones (entity ``cones``) and the estimated car (entity ``car``) of one map state."""
+    """Cones (entity ``cones``) and the estimated car (entity ``car``) of one map state;
+    ``drawer`` (one per stream of map states) reuses the cones drawn before."""
     stamp = timestamp(state.timestamp_s)
     cones = state.cones
+    draw = drawer if drawer is not None else _cones
     cone_entity = fg.SceneEntity(
         timestamp=stamp,
         frame_id=WORLD_FRAME,
         id="cones",
         lifetime=Duration(),
-        cylinders=_cones(cones.xy_m, cones.colour.tolist(), cones.size.tolist()),
+        cylinders=draw(cones.xy_m, cones.colour.tolist(), cones.size.tolist()),
         metadata=[
             fg.KeyValuePair(key="count", value=str(len(cones))),
             fg.KeyValuePair(key="loop_closed", value=str(state.loop_closed).lower()),

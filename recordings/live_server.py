@@ -167,6 +167,7 @@ class LiveServer:
         self._next_track_s = 0.0
         self._last_scene_s: float | None = None
         self._trace = foxglove_views.TraceSegments()
+        self._cone_drawer = foxglove_views.ConeDrawer()
         self._closed = False
         self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, queue_length))
         self._thread = threading.Thread(target=self._run, name="live-server", daemon=True)
@@ -290,7 +291,8 @@ class LiveServer:
                 self._last_scene_s = t_s
                 car = self._car
                 self._log(topics.FOXGLOVE_SCENE, foxglove_views.map_scene(
-                    message, car.length_m, car.width_m, car.rear_overhang_m), t_s)
+                    message, car.length_m, car.width_m, car.rear_overhang_m,
+                    self._cone_drawer), t_s)
         elif isinstance(message, Plan):
             self._log(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), t_s)
 

@@ -155,6 +155,7 @@ class Recorder:
         self._chunk_opened_wall_s = 0.0
         self._last_scene_ns: int | None = None
         self._trace = foxglove_views.TraceSegments()
+        self._cone_drawer = foxglove_views.ConeDrawer()
         # The queue itself is unbounded; _reserve bounds the messages in it (a tick's raw units
         # are one item), so a full queue holds queue_length messages however they are batched.
         self._queue: queue.SimpleQueue[_Item] = queue.SimpleQueue()
@@ -342,7 +343,7 @@ class Recorder:
                 self._last_scene_ns = log_ns
                 car = self._car
                 scene = foxglove_views.map_scene(
-                    message, car.length_m, car.width_m, car.rear_overhang_m
+                    message, car.length_m, car.width_m, car.rear_overhang_m, self._cone_drawer
                 )
                 self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)
             self._write_proto(topics.FOXGLOVE_TF, foxglove_views.frame_transform(message.pose),

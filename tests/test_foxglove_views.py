@@ -3,6 +3,8 @@ trace (in small segments)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -41,3 +43,38 @@ def test_trace_segments_cover_the_path_once_each() -> None:
     xs = [[p.x for p in u.entities[0].lines[0].points] for u in updates]
     assert xs[0][0] == 0.0 and xs[1][0] == xs[0][-1] and xs[2][0] == xs[1][-1]  # joined
     assert xs[2][-1] == pytest.approx(15.0)
+
+
+def test_the_cone_drawer_reuses_cones_that_stay_within_half_a_millimetre() -> None:
+    map_state, _, _ = synthetic_scene(1.0)
+    cones = map_state.cones
+    drawer = fv.ConeDrawer()
+
+    def drawn(state) -> list:  # type: ignore[no-untyped-def]
+        scene = fv.map_scene(state, drawer=drawer)
+        return list(next(e for e in scene.entities if e.id == "cones").cylinders)
+
+    exact = list(next(e for e in fv.map_scene(map_state).entities if e.id == "cones").cylinders)
+    first = drawn(map_state)
+    assert len(first) == len(exact) == len(cones) > 10
+    for a, b in zip(first, exact, strict=True):
+        # the same cone: colour, size and height exact, position to the millimetre
+        assert (a.color, a.size, a.pose.position.z) == (b.color, b.size, b.pose.position.z)
+        assert abs(a.pose.position.x - b.pose.position.x) <= 0.5e-3 + 1e-12
+        assert abs(a.pose.position.y - b.pose.position.y) <= 0.5e-3 + 1e-12
+    made = len(drawer._made)
+    assert made == len(cones)
+    # the next map state: every cone moved by 0.1 mm but one, moved by 5 cm
+    xy = cones.xy_m.copy()
+    x_mm = np.rint(xy[:, 0] * 1000.0) / 1000.0
+    xy[:, 0] = x_mm + 0.1e-3  # still rounds to the same millimetre
+    xy[0, 0] += 0.05
+    moved = dataclasses.replace(map_state, cones=dataclasses.replace(cones, xy_m=xy))
+    second = drawn(moved)
+    assert len(drawer._made) == made + 1  # one new primitive, the rest reused
+    assert second[0].pose.position.x == pytest.approx(x_mm[0] + 0.05, abs=1e-9)
+    assert second[1:] == first[1:]
+    small = fv.ConeDrawer(limit=3)
+    small(xy, cones.colour.tolist(), cones.size.tolist())
+    small(xy, cones.colour.tolist(), cones.size.tolist())
+    assert len(small._made) <= len(cones)  # cleared once over its limit, never grows on
