@@ -117,9 +117,11 @@ def test_bad_rate_is_refused(tmp_path: Path) -> None:
     assert list(Player(path)) == []
 
 
-def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
-    path = tmp_path / "drops.mcap"
-    recorder = Recorder(path, RecordingConfig(queue_length=5))
+def _held_recorder(path: Path, queue_length: int
+                   ) -> tuple[Recorder, threading.Event, threading.Event]:
+    """A recorder whose writer thread, once it takes a message (``taken`` is set), holds it
+    until ``gate`` is set."""
+    recorder = Recorder(path, RecordingConfig(queue_length=queue_length))
     gate = threading.Event()
     taken = threading.Event()
     handle = recorder._handle
@@ -130,6 +132,12 @@ def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
         handle(item)  # type: ignore[arg-type]
 
     recorder._handle = slow_handle  # type: ignore[method-assign]
+    return recorder, gate, taken
+
+
+def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
+    recorder, gate, taken = _held_recorder(tmp_path / "drops.mcap", 5)
+    path = recorder.path
     assert recorder.write("/steer", SteeringAngle(0.0, 0.0), 0.0)
     assert taken.wait(10.0)  # the writer thread holds the first message
     accepted = [recorder.write("/steer", SteeringAngle(i, 0.0), i) for i in range(1, 100)]
@@ -143,18 +151,8 @@ def test_recorder_never_blocks_and_counts_drops(tmp_path: Path) -> None:
 
 def test_a_batch_of_raw_units_is_one_queue_item_and_its_drops_count_each_unit(
         tmp_path: Path) -> None:
-    path = tmp_path / "batches.mcap"
-    recorder = Recorder(path, RecordingConfig(queue_length=1))
-    gate = threading.Event()
-    taken = threading.Event()
-    handle = recorder._handle
-
-    def slow_handle(item: object) -> None:
-        taken.set()
-        gate.wait(30.0)
-        handle(item)  # type: ignore[arg-type]
-
-    recorder._handle = slow_handle  # type: ignore[method-assign]
+    recorder, gate, taken = _held_recorder(tmp_path / "batches.mcap", 1)
+    path = recorder.path
 
     def batch(t0: float, n: int) -> list[CanFrame]:
         return [CanFrame(t0 + 0.001 * i, 0x20, bytes([i])) for i in range(n)]
