@@ -228,12 +228,38 @@ class TraceSegments:
         return fg.SceneUpdate(entities=[entity])
 
 
-def plan_scene(plan: Plan, candidates: bool = True) -> fg.SceneUpdate:
-    """The chosen manoeuvre and the baseframe of a plan (entity ``plan``)."""
+class LineMemo:
+    """The last line drawn, reused while its points and style are the same: a plan's
+    baseframe, redrawn with every plan (10 Hz) and unchanged once the race line is fixed
+    (1,140 points on the default track; drawing it was most of a plan scene's cost)."""
+
+    def __init__(self) -> None:
+        self._key: tuple[np.ndarray, np.ndarray, tuple[float, float, float, float], float,
+                         bool] | None = None
+        self._line: fg.LinePrimitive | None = None
+
+    def __call__(self, x_m: np.ndarray, y_m: np.ndarray, rgba: tuple[float, float, float, float],
+                 thickness_m: float, loop: bool) -> fg.LinePrimitive:
+        """The line through ``x_m``, ``y_m`` (N,) each (m)."""
+        x, y = np.asarray(x_m, dtype=np.float64), np.asarray(y_m, dtype=np.float64)
+        key = self._key
+        if (self._line is not None and key is not None and key[2:] == (rgba, thickness_m, loop)
+                and np.array_equal(key[0], x) and np.array_equal(key[1], y)):
+            return self._line
+        self._line = _line(np.column_stack([x, y]), rgba, thickness_m, loop)
+        self._key = (x.copy(), y.copy(), rgba, thickness_m, loop)
+        return self._line
+
+
+def plan_scene(plan: Plan, candidates: bool = True,
+               baseframe_memo: LineMemo | None = None) -> fg.SceneUpdate:
+    """The chosen manoeuvre and the baseframe of a plan (entity ``plan``);
+    ``baseframe_memo`` (one per stream of plans) reuses the baseframe drawn last."""
     lines = []
     if plan.baseframe is not None and len(plan.baseframe.x_m) > 1:
         bf = plan.baseframe
-        lines.append(_line(np.column_stack([bf.x_m, bf.y_m]), BASEFRAME_RGBA, 0.05, bf.closed))
+        draw = baseframe_memo if baseframe_memo is not None else LineMemo()
+        lines.append(draw(bf.x_m, bf.y_m, BASEFRAME_RGBA, 0.05, bf.closed))
     for index, candidate in enumerate(plan.candidates if candidates else ()):
         if index != plan.chosen_index and len(candidate) > 1:
             lines.append(_line(np.asarray(candidate), CANDIDATE_RGBA, 0.03, False))

@@ -168,6 +168,7 @@ class LiveServer:
         self._last_scene_s: float | None = None
         self._trace = foxglove_views.TraceSegments()
         self._cone_drawer = foxglove_views.ConeDrawer()
+        self._baseframe_memo = foxglove_views.LineMemo()
         self._closed = False
         self._queue: queue.Queue[_Item] = queue.Queue(maxsize=max(1, queue_length))
         self._thread = threading.Thread(target=self._run, name="live-server", daemon=True)
@@ -294,7 +295,9 @@ class LiveServer:
                     message, car.length_m, car.width_m, car.rear_overhang_m,
                     self._cone_drawer), t_s)
         elif isinstance(message, Plan):
-            self._log(topics.FOXGLOVE_SCENE, foxglove_views.plan_scene(message), t_s)
+            self._log(topics.FOXGLOVE_SCENE,
+                      foxglove_views.plan_scene(message, baseframe_memo=self._baseframe_memo),
+                      t_s)
 
     def _log(self, topic: str, proto: ProtoMessage, t_s: float) -> None:
         channel = self._channels[topic]

@@ -156,6 +156,7 @@ class Recorder:
         self._last_scene_ns: int | None = None
         self._trace = foxglove_views.TraceSegments()
         self._cone_drawer = foxglove_views.ConeDrawer()
+        self._baseframe_memo = foxglove_views.LineMemo()
         # The queue itself is unbounded; _reserve bounds the messages in it (a tick's raw units
         # are one item), so a full queue holds queue_length messages however they are batched.
         self._queue: queue.SimpleQueue[_Item] = queue.SimpleQueue()
@@ -355,7 +356,9 @@ class Recorder:
             # the candidates stay in /plan; drawn in the recorded scene they cost the car's
             # executive process several ms per plan (the live view draws them)
             self._write_proto(topics.FOXGLOVE_SCENE,
-                              foxglove_views.plan_scene(message, candidates=False), log_ns)
+                              foxglove_views.plan_scene(message, candidates=False,
+                                                        baseframe_memo=self._baseframe_memo),
+                              log_ns)
         elif isinstance(message, TrackLayout):
             scene = foxglove_views.track_scene(message, log_ns * 1e-9)
             self._write_proto(topics.FOXGLOVE_SCENE, scene, log_ns)

@@ -78,3 +78,23 @@ def test_the_cone_drawer_reuses_cones_that_stay_within_half_a_millimetre() -> No
     small(xy, cones.colour.tolist(), cones.size.tolist())
     small(xy, cones.colour.tolist(), cones.size.tolist())
     assert len(small._made) <= len(cones)  # cleared once over its limit, never grows on
+
+
+def test_the_baseframe_is_drawn_again_only_when_it_changes() -> None:
+    _, plan, _ = synthetic_scene(1.0)
+    memo = fv.LineMemo()
+
+    def baseframe_line(p):  # type: ignore[no-untyped-def]
+        return fv.plan_scene(p, baseframe_memo=memo).entities[0].lines[0]
+
+    exact = fv.plan_scene(plan).entities[0].lines[0]
+    assert baseframe_line(plan) == exact
+    drawn = memo._line
+    assert baseframe_line(plan) == exact and memo._line is drawn  # reused
+    bf = plan.baseframe
+    assert bf is not None
+    moved = dataclasses.replace(plan, baseframe=dataclasses.replace(bf, x_m=bf.x_m + 1.0))
+    line = baseframe_line(moved)
+    assert memo._line is not drawn
+    assert [p.x for p in line.points] == pytest.approx((bf.x_m + 1.0).tolist())
+    assert baseframe_line(plan) == exact  # and back
