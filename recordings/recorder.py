@@ -69,22 +69,19 @@ def _checked_ns(t_s: float) -> int:
 
 @dataclass(frozen=True, slots=True)
 class _Item:
-    kind: str  # "msg", "proto", "gps", "meta", "raws" (payload: a tuple of raw units)
+    kind: str  # "msg", "proto", "gps", "meta", "raws" (a tuple of raw units), "raw" (one of them)
     topic: str
     payload: Any
     log_time_s: float
 
 
 def _unbatched(item: _Item) -> Iterator[_Item]:
-    """The item itself, or each raw unit of a ``raws`` batch as its own item."""
+    """The item itself, or each raw unit of a ``raws`` batch as a ``raw`` item."""
     if item.kind != "raws":
         yield item
         return
     for raw in item.payload:
-        try:
-            yield _Item("msg", topics.raw_topic(raw), raw, raw.timestamp_s)
-        except AttributeError:  # not a raw unit: fails (and is counted) in _handle
-            yield _Item("msg", "/raw/unknown", raw, math.nan)
+        yield _Item("raw", "a batch's raw unit", raw, math.nan)
 
 
 class Recorder:
@@ -322,6 +319,9 @@ class Recorder:
                       item.topic, self.errors, exc)
 
     def _handle(self, item: _Item) -> None:
+        if item.kind == "raw":  # its topic and time found here, where a bad unit is counted
+            raw = item.payload
+            item = _Item("msg", topics.raw_topic(raw), raw, raw.timestamp_s)
         if item.kind == "meta":
             self._writer.add_metadata(item.topic, item.payload)
             return
