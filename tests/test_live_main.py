@@ -110,12 +110,19 @@ def test_time_limit_records_and_stops_with_full_brake(tmp_path: Path) -> None:
     # the wheel speeds reached the Mapper, its pose came back to the controller
     assert main.pose is not None
     assert len(car.commands) >= 150
-    assert car.commands[0].state == AsState.READY  # before the first pose: held, braking
     assert ends_with_full_brake(car.commands)
     # the recording: the commands and the CAN frames crossed to the executive process
     counts: dict[str, int] = {}
-    for _t, topic, _m in Player(tmp_path / "recording.mcap"):
+    recorded_commands: list[ActuatorCommand] = []
+    for _t, topic, message in Player(tmp_path / "recording.mcap"):
         counts[topic] = counts.get(topic, 0) + 1
+        if topic == "/command":
+            recorded_commands.append(message)
+    # The first tick's command, before any pose: held in READY, full brake. (The bus may not
+    # carry it: the CAN sender sends the newest command, and a loaded machine may supersede
+    # it before it goes out; the recording has every tick's.)
+    first = recorded_commands[0]
+    assert (first.state, first.brake, first.throttle) == (AsState.READY, 1.0, 0.0)
     assert counts.get("/command", 0) >= 150
     assert counts.get("/can/frame", 0) >= 50
     assert counts.get("/health", 0) >= 15
