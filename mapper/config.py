@@ -135,6 +135,12 @@ class UkfConfig:
     from ``odometry_speed_scale``."""
     odometry_yaw_rate_source: Literal["rear_wheels", "steering", "none"] = "rear_wheels"
     odometry_gate_sigma: float = 5.0
+    odometry_reset_after_s: float = 0.5
+    """Wheel speeds rejected by the gate without a break for this long (s, their own time)
+    mean the filter, not the wheels, is wrong (it diverged: e.g. after the computer stalled
+    and the sensors' data came in a burst): the speeds' covariance is reset around the wheels'
+    reading, and the position's widened by what that error moved it, so the filter takes the
+    wheels, the GNSS and the cones again. 0 or less: never (rejected for ever)."""
     gnss_position_sigma_m: float = 5.0
     """GNSS position noise (m), above the receiver's 2.5 m white noise: its wandering bias and
     the error of the estimated world frame are not in the model."""
@@ -235,6 +241,13 @@ class SlamConfig:
     imu_lever_arm: bool = True
     """Move the IMU's specific force from car.imu_x_m to the rear axle (centripetal, tangential)."""
     max_predict_dt_s: float = 0.1
+    held_gyro_sigma_radps: float = 0.5
+    """The IMU silent longer than ``max_predict_dt_s`` before another sensor's reading (a
+    stalled serial link or computer): the filter moves on with the last sample's input held,
+    a guess. How far the true yaw rate (rad/s) may have moved from it: the yaw's variance
+    grows by (this x the gap)^2, and the position's with it. 0: no widening."""
+    held_accel_sigma_mps2: float = 5.0
+    """The same for the acceleration (m/s^2): the speeds' variances grow by (this x gap)^2."""
     initial_position_sigma_m: float = 1.0e-5
     initial_yaw_sigma_rad: float = 1.0e-5
     """The world frame IS the car's start pose (common/conventions), so the initial pose error

@@ -107,6 +107,8 @@ class UkfLocaliser:
         self.accel_bias_mps2 = np.zeros(2)
         self.wheel_scale = config.odometry_speed_scale
         """The wheels' speed scale in use (the configured one, or the Mapper's estimate)."""
+        self._odometry_rejected_since_s = math.nan
+        """Measurement time (s) of the first of an unbroken run of gated-out wheel speeds."""
         self._calibration = StaticCalibration(config.static_gyro_threshold_radps,
                                               config.static_accel_threshold_mps2)
         self.calibrating = config.static_calibration
@@ -518,7 +520,41 @@ class UkfLocaliser:
             H = _row(IVX, self.n)
             y = np.array([v - self.x[IVX]])
             R = np.array([[cfg.odometry_speed_sigma_mps**2]])
-        return self.update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
+        rejected = self.stats.get("odometry", Counter())["rejected"]
+        if self.update_linear("odometry", y, H, R, cfg.odometry_gate_sigma):
+            self._odometry_rejected_since_s = math.nan
+            return True
+        if self.stats["odometry"]["rejected"] == rejected:
+            return False  # not the gate (a singular innovation)
+        t = ws.timestamp_s
+        if not math.isfinite(self._odometry_rejected_since_s):
+            self._odometry_rejected_since_s = t
+        run_s = t - self._odometry_rejected_since_s
+        if 0.0 < cfg.odometry_reset_after_s <= run_s:
+            self._reset_velocity(y, H, run_s)
+            self._odometry_rejected_since_s = math.nan
+            return self.update_linear("odometry", y, H, R, cfg.odometry_gate_sigma)
+        return False
+
+    def _reset_velocity(self, y: FloatArray, H: FloatArray, run_s: float) -> None:
+        """The filter diverged from the wheels (``y``, rows of ``H``: their innovation, gated
+        out for ``run_s`` s): forget what it believed of the states the wheels measure (their
+        variance becomes the innovation's square, their correlations none) and widen the
+        position by what that speed error moved it in ``run_s``."""
+        rows = [int(np.flatnonzero(h)[0]) for h in H]
+        for i, dy in zip(rows, y, strict=True):
+            self.P[i, :] = 0.0
+            self.P[:, i] = 0.0
+            self.P[i, i] = float(dy) ** 2
+            if self.PxL is not None:
+                self.PxL[i, :] = 0.0
+        drift_m = abs(float(y[0])) * run_s
+        self.P[IX, IX] += drift_m**2
+        self.P[IY, IY] += drift_m**2
+        self.count("odometry", "reset")
+        log.warning("UKF: the wheel speeds were gated out for %.2f s (innovation %.2f m/s): "
+                    "the speed estimate is reset to the wheels, the position widened by %.2f m",
+                    run_s, float(y[0]), drift_m)
 
     def update_gnss_position(self, xy_world_m: FloatArray, cov: FloatArray | None = None) -> bool:
         """Seed 001's GNSS pose model (:func:`mapper.ukf_gnss.update_position`)."""

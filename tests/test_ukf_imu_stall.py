@@ -12,6 +12,7 @@ import numpy as np
 from common.messages import GpsFix, ImuSample, WheelSpeeds
 from mapper.backend import UkfInputs
 from mapper.ukf_localiser import UkfLocaliser
+from mapper.ukf_state import IVX
 from orchestrator.config import AppConfig
 from support.drives import drive as simulated
 
@@ -95,3 +96,49 @@ def test_a_gap_in_the_imu_is_driven_through_not_cut_short() -> None:
     assert err <= clean[end + 0.01][0] + speed * 0.5 * STALL_S**2 / 2.0
     assert err < speed * (STALL_S - 0.05) / 4.0  # far from what the cut step left behind
     assert ukf.stats["imu"]["gap"] >= 1
+
+
+def _diverged_then_standing(reset_after_s: float) -> tuple[UkfLocaliser, list[float]]:
+    """A UKF sure the car runs at 7 m/s (sigma 0.014 m/s: what the emulated drive's filter
+    believed after a 1.4 s stall of the whole machine, its wheel speeds and IMU samples coming
+    back in a burst) while the car stands: 1.5 s of IMU at rest (200 Hz) and wheels at 0
+    (100 Hz). Returns the UKF and its speed after each wheel reading."""
+    cfg = AppConfig()
+    ukf_cfg = cfg.mapper.ukf
+    ukf_cfg.static_calibration = False
+    ukf_cfg.odometry_reset_after_s = reset_after_s
+    ukf = UkfLocaliser(ukf_cfg, cfg.car)
+    ukf.x[IVX] = 7.0
+    ukf.P[IVX, IVX] = 0.014**2
+    speeds: list[float] = []
+    for k in range(300):
+        t = 10.0 + k * 0.005
+        ukf.predict(ImuSample(t, 0.0, 0.0, 9.81, 0.0, 0.0, 0.0))
+        if k % 2 == 1:
+            ukf.update_odometry(WheelSpeeds(t, 0.0, 0.0, 0.0, 0.0))
+            speeds.append(float(ukf.x[IVX]))
+    return ukf, speeds
+
+
+def test_a_filter_that_left_the_wheels_is_reset_to_them() -> None:
+    """Wheel speeds gated out without a break for ``odometry_reset_after_s`` (0.5 s): the
+    filter, not the wheels, is wrong. Its speed is reset to the wheels' (within 3 of their
+    sigmas from then on), once, and its position is widened by what that speed error moved it
+    over the 0.5 s (7 m/s x 0.5 s); before it, every reading was rejected. Without the reset
+    the filter keeps rejecting the standing car's wheels to the end."""
+    ukf, speeds = _diverged_then_standing(0.5)
+    odometry = ukf.stats["odometry"]
+    assert odometry["reset"] == 1
+    # the reading that finds the run 0.5 s long is rejected, then taken after the reset
+    kept_out = odometry["rejected"] - 1
+    assert 0.5 - 1e-9 <= kept_out * 0.01 < 0.51  # wheel readings every 0.01 s
+    assert odometry["applied"] == len(speeds) - kept_out
+    sigma = AppConfig().mapper.ukf.odometry_speed_sigma_mps
+    assert all(v > 6.0 for v in speeds[:kept_out])
+    assert all(abs(v) < 3.0 * sigma for v in speeds[kept_out:])
+    assert math.sqrt(ukf.P[0, 0]) > 7.0 * 0.5 * 0.9
+
+    never, never_speeds = _diverged_then_standing(0.0)
+    assert "reset" not in never.stats["odometry"]
+    assert never.stats["odometry"]["rejected"] == len(never_speeds)
+    assert never_speeds[-1] > 6.0
