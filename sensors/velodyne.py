@@ -259,16 +259,24 @@ class DeviceClock:
 
     Arrival times jitter (the network batches datagrams) but are never earlier than the
     packet was complete, so the offset Clock - device is the smallest seen ``arrival -
-    PACKET_DURATION_S - device``; it may grow by ``drift_ppm`` (clock drift) and is reset after
-    a jump of more than ``reset_s``. The hour wrap of the device time is unwrapped.
+    PACKET_DURATION_S - device``; it may grow by ``drift_ppm`` (clock drift). Packets later
+    than the offset by more than ``reset_s`` are late (a stalled receiver reading the
+    kernel's backlog in a burst): they keep the offset, and so the times they were made at,
+    unless every packet stays that late for ``late_persist_s`` of arrival time, which is the
+    device's clock having jumped back (then the offset is reset). The hour wrap of the device
+    time is unwrapped.
     """
 
-    def __init__(self, drift_ppm: float = 100.0, reset_s: float = 0.5) -> None:
+    def __init__(self, drift_ppm: float = 100.0, reset_s: float = 0.5,
+                 late_persist_s: float = 1.0) -> None:
         self.drift = drift_ppm * 1e-6
         self.reset_s = reset_s
+        self.late_persist_s = late_persist_s
         self.offset_s: float | None = None
         self._last_device_s: float | None = None
         self._hours = 0
+        self._late_since_s: float | None = None
+        """Arrival time (s) of the first of the packets late by more than ``reset_s`` in a row."""
 
     def update(self, arrival_s: float, device_us: int) -> float:
         """Take a packet's arrival time (Clock, s) and timestamp; return its device time (s,
@@ -278,10 +286,16 @@ class DeviceClock:
             self._hours += 1
             device_s += 3600.0
         cand = arrival_s - PACKET_DURATION_S - device_s
-        if (self.offset_s is None or self._last_device_s is None
-                or abs(cand - self.offset_s) > self.reset_s):
+        if self.offset_s is None or self._last_device_s is None:
             self.offset_s = cand
+        elif cand > self.offset_s + self.reset_s:
+            if self._late_since_s is None:
+                self._late_since_s = arrival_s
+            elif arrival_s - self._late_since_s > self.late_persist_s:
+                self.offset_s = cand  # late for good: the device's clock went back
+                self._late_since_s = None
         else:
+            self._late_since_s = None
             grown = self.offset_s + self.drift * max(device_s - self._last_device_s, 0.0)
             self.offset_s = min(grown, cand)
         self._last_device_s = device_s

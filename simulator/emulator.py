@@ -243,11 +243,13 @@ class HardwareEmulator:
         world does not wait: it is driven through the missed steps one by one, the person
         steering at each (one steer held over a 1.4 s stall put the scripted driver into the
         cones on a loaded test machine)."""
-        self._take_commands(t_s, t_s)
-        stack = self._stack_command(t_s, t_s)
         raw: list[RawBytes | CanFrame] = []
-        for step_t_s in catch_up_times_s(self.world.t_s, t_s, self.options.step_s):
-            raw.extend(self._step_world(step_t_s, stack))
+        *missed, _ = catch_up_times_s(self.world.t_s, t_s, self.options.step_s)
+        for step_t_s in missed:
+            # the stack's last command until the car's own watchdog brakes
+            raw.extend(self._step_world(step_t_s, self._stack_command(step_t_s, step_t_s)))
+        self._take_commands(t_s, t_s)
+        raw.extend(self._step_world(t_s, self._stack_command(t_s, t_s)))
         return raw
 
     def _step_world(self, t_s: float, stack: ActuatorCommand) -> list[RawBytes | CanFrame]:

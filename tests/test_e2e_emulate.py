@@ -197,22 +197,60 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     assert 0 <= served["steps_late"] < served["actuator_frames_in"]
 
 
-def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
-    emulator, car, emulator_summary = start_emulator(tmp_path, procs, seconds=110.0)
-    drive_dir = tmp_path / "drive"
+FREEZE_MS = 500.0
+"""The emulator's own step that late: the machine stopped every process (the stand-in sensors
+included) for longer than the stack's longest sensor timeout (GPS, RES: 0.5 s). CI's loaded
+machine did so once for 1.4 s during the exploration lap (issue 19)."""
+
+
+def _session(folder: Path, procs: list[Proc]) -> tuple[Proc, Proc, Path, float, bool]:
+    """emulate + drive: the scripted exploration lap, the RES go; returns the emulator, drive,
+    the emulator's summary path, the handover time and whether the stack drove the car within
+    45 s of the go (the rules' 3 s hold after it; on a loaded machine the racing line's worker
+    process starts beside it: a generous wait)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    emulator, car, emulator_summary = start_emulator(folder, procs, seconds=110.0)
     drive = Proc("drive", ["drive", "--config", str(car), "--laps", "2", "--out",
-                           str(drive_dir)], tmp_path)
+                           str(folder / "drive")], folder)
     procs.append(drive)
     emulator.wait_for_log(r"the stack opened the CAN adapter", 30.0)
     # The scripted exploration lap (~24 s on this track), a stop, then the RES go.
     go = emulator.wait_for_log(r"RES go: handover to the stack at t=([0-9.]+) s", 60.0)
-    handover_s = float(go.group(1))
-    # Kill drive once the car moves under its command (the rules' 3 s hold after the go; on a
-    # loaded machine the racing line's worker process starts beside it: a generous wait).
     try:
         emulator.wait_for_log(r"the stack drives the car: ([0-9.]+) m/s", 45.0)
-    except AssertionError as exc:
-        raise AssertionError(f"{exc}\ndrive:\n{drive.log()[-3000:]}") from None
+        drove = True
+    except AssertionError:
+        drove = False
+    return emulator, drive, emulator_summary, float(go.group(1)), drove
+
+
+def _safe_stop_after_a_freeze(emulator: Proc, drive: Proc, emulator_summary: Path) -> str:
+    """The stack did not drive after the go. That is allowed, once, only when the emulator
+    measured a freeze of the whole machine (``FREEZE_MS``) and the stack stopped safely (no
+    cone hit, drive's own controlled stop). Returns what happened, for the log."""
+    logs = f"drive:\n{drive.log()[-3000:]}"
+    assert drive.wait(60.0) == 0, logs
+    assert emulator.wait(60.0) == 0, emulator.log()
+    served = json.loads(emulator_summary.read_text())
+    summary_path = emulator_summary.parent / "drive" / "summary.json"
+    stop = json.loads(summary_path.read_text())["stop_reason"]
+    froze_ms = float(served["step_late_max_ms"])
+    assert froze_ms > FREEZE_MS, (f"the stack did not drive after the go, and the machine "
+                                  f"did not freeze (emulator late {froze_ms} ms)\n{logs}")
+    assert served["cones_hit"] == 0, served
+    assert served["as_state"] == "EMERGENCY", (stop, served)  # the stack's controlled stop
+    return f"machine froze {froze_ms:.0f} ms; drive stopped safely: {stop}"
+
+
+def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
+    emulator, drive, emulator_summary, handover_s, drove = _session(tmp_path / "run1", procs)
+    if not drove:
+        print(f"\nfirst session: {_safe_stop_after_a_freeze(emulator, drive, emulator_summary)}"
+              "; running it again")
+        emulator, drive, emulator_summary, handover_s, drove = _session(tmp_path / "run2",
+                                                                         procs)
+        assert drove, f"the stack did not drive after the go\ndrive:\n{drive.log()[-3000:]}"
+    drive_dir = emulator_summary.parent / "drive"
     assert drive.popen.poll() is None, f"drive ended by itself:\n{drive.log()[-3000:]}"
     drive.popen.send_signal(signal.SIGKILL)
     drive.wait(10.0)
