@@ -207,6 +207,11 @@ class FusionConfig:
 
     max_delay_s: float = 0.3
     """A source silent for longer than this no longer holds the lagged filter back."""
+    freeze_gap_s: float = 0.5
+    """No reading at all for this long (s, on the caller's clock): the stack itself was not
+    run (a stalled computer), not every sensor dead. The silence is not counted against the
+    sources, and the horizon trails its old pace while their backlogs arrive, so what they
+    made meanwhile is applied in order, not dropped as late (:mod:`mapper.delay_buffer`)."""
     colour_min_votes: int = 1
     colour_gate_m: float = 1.0
     """A camera cone votes for the nearest landmark within this distance (world frame)."""
@@ -241,13 +246,6 @@ class SlamConfig:
     imu_lever_arm: bool = True
     """Move the IMU's specific force from car.imu_x_m to the rear axle (centripetal, tangential)."""
     max_predict_dt_s: float = 0.1
-    held_gyro_sigma_radps: float = 0.5
-    """The IMU silent longer than ``max_predict_dt_s`` before another sensor's reading (a
-    stalled serial link or computer): the filter moves on with the last sample's input held,
-    a guess. How far the true yaw rate (rad/s) may have moved from it: the yaw's variance
-    grows by (this x the gap)^2, and the position's with it. 0: no widening."""
-    held_accel_sigma_mps2: float = 5.0
-    """The same for the acceleration (m/s^2): the speeds' variances grow by (this x gap)^2."""
     initial_position_sigma_m: float = 1.0e-5
     initial_yaw_sigma_rad: float = 1.0e-5
     """The world frame IS the car's start pose (common/conventions), so the initial pose error

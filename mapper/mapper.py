@@ -95,7 +95,7 @@ class Mapper:
             else SmootherBackend(config, car, self.ukf))
         self.localiser: MapLocaliser | None = None
         self.object_filter = ObjectFilter(config.object_filter)
-        self.buffer = DelayBuffer(config.fusion.max_delay_s)
+        self.buffer = DelayBuffer(config.fusion.max_delay_s, config.fusion.freeze_gap_s)
         self.world_frame: WorldFrame | None = None
         self._enu: LocalTangentFrame | None = None
         self._frame_estimator: GnssFrameEstimator | None = None
@@ -189,6 +189,8 @@ class Mapper:
                     row[outcome] = row.get(outcome, 0) + n
         for stream, n in self.buffer.late.items():
             out.setdefault(stream, {})["late"] = n
+        if self.buffer.freezes:
+            out["fusion"] = {"freezes": self.buffer.freezes}
         if self.object_filter.rejects:
             out["object_filter"] = dict(self.object_filter.rejects)
         out.update(self.backend.stats())

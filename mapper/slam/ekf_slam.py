@@ -204,25 +204,6 @@ class EkfSlam:
             return
         self._propagate(dt)
         self.t_s = timestamp_s
-        if dt > self.cfg.max_predict_dt_s and self._last_imu is not None:
-            self._widen_for_held_input(dt)
-
-    def _widen_for_held_input(self, gap_s: float) -> None:
-        """The input was held over ``gap_s`` (s) without the IMU: what the true yaw rate and
-        acceleration may have done meanwhile widens the yaw, the speeds and the position (the
-        yaw error grows along the gap, moving the car sideways by speed x yaw error / 2), so
-        the cones seen after the gap can still be associated."""
-        cfg = self.cfg
-        pose = self.ekf.xbuf[:POSE_DIM]
-        speed_mps = math.hypot(float(pose[3]), float(pose[4]))
-        yaw_sigma = cfg.held_gyro_sigma_radps * gap_s
-        speed_sigma = cfg.held_accel_sigma_mps2 * gap_s
-        position_var = (0.5 * speed_sigma * gap_s) ** 2 + (0.5 * speed_mps * yaw_sigma * gap_s) ** 2
-        p = self.ekf.pbuf
-        for i, var in ((0, position_var), (1, position_var), (2, yaw_sigma**2),
-                       (3, speed_sigma**2), (4, speed_sigma**2)):
-            p[i, i] += var
-        self.stats["held_input_widened"] += 1
 
     def _origin_input(self, prev: ImuSample, cur: ImuSample, dt_s: float
                       ) -> tuple[float, float, float, float]:
