@@ -55,6 +55,7 @@ STACK_DRIVES_MPS = 2.0
 """Above this speed after the handover the stack drives the car (logged once: a sign for the
 person at the track side, and for tests, that the car is moving under the stack)."""
 
+
 def catch_up_times_s(from_s: float, to_s: float, step_s: float) -> list[float]:
     """The times (s) to step a world at ``from_s`` to ``to_s`` by at most ``step_s`` each:
     ``[to_s]`` when on time, the missed steps' times and then ``to_s`` when late."""
