@@ -207,11 +207,15 @@ class FusionConfig:
 
     max_delay_s: float = 0.3
     """A source silent for longer than this no longer holds the lagged filter back."""
-    freeze_gap_s: float = 0.5
+    freeze_gap_s: float = 1.0
     """No reading at all for this long (s, on the caller's clock): the stack itself was not
     run (a stalled computer), not every sensor dead. The silence is not counted against the
     sources, and the horizon trails its old pace while their backlogs arrive, so what they
-    made meanwhile is applied in order, not dropped as late (:mod:`mapper.delay_buffer`)."""
+    made meanwhile is applied in order, not dropped as late (:mod:`mapper.delay_buffer`).
+    Longer than every sensor's timeout: a stall that long stops a driving car anyway, while
+    a shorter one is ridden through with the horizon running on (at 0.5 s, a 0.55 s stall of
+    drive's executive process under load lagged the map by that much, and the car left the
+    track corridor in `bench load`)."""
     colour_min_votes: int = 1
     colour_gate_m: float = 1.0
     """A camera cone votes for the nearest landmark within this distance (world frame)."""
