@@ -22,6 +22,8 @@ on a loaded machine) and counts the clean ones; last line
 ``--serial-stall T:D`` has the emulator hold its GPS and IMU bytes from T for D seconds, then
 write them at once: a stalled serial link (issue 19 saw 0.46 s at 15.6 m/s under load); drive's
 readers see the silence, so a stall longer than the IMU's timeout ends in a stop.
+``--keep DIR`` keeps each run's folder (drive's recording, summary and log on stderr, the
+emulator's summary) as ``DIR/run_<k>`` to study a run that was not clean.
 """
 
 from __future__ import annotations
@@ -65,6 +67,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="T:D",
                         help="the emulator holds the GPS and IMU bytes from T for D s of its "
                              "clock, then writes them at once (emulate --serial-stall)")
+    parser.add_argument("--keep", type=Path, default=None, metavar="DIR",
+                        help="keep each run's folder (drive's recording and log, the "
+                             "emulator's summary) as DIR/run_<k>; by default they are removed")
 
 
 def _spin() -> None:
@@ -92,8 +97,13 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     clean = 0
     try:
         for k in range(args.runs):
-            with tempfile.TemporaryDirectory(prefix="bench_load_") as tmp:
-                result = _pair(Path(tmp), args)
+            if args.keep is not None:
+                folder = args.keep / f"run_{k + 1}"
+                folder.mkdir(parents=True, exist_ok=False)
+                result = _pair(folder, args)
+            else:
+                with tempfile.TemporaryDirectory(prefix="bench_load_") as tmp:
+                    result = _pair(Path(tmp), args)
             if args.runs > 1:
                 print(f"--- run {k + 1} of {args.runs}")
             run_over_ms, run_laps, run_cones, run_clean = _report(result, args)

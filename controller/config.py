@@ -26,11 +26,23 @@ class SafetyConfig:
     rest of its manoeuvre covers a controlled stop (it slows as the plan ages), and stops when
     it no longer does or the plan is older than ``plan_max_age_s``."""
     plan_max_age_s: float = 1.0
+    pose_max_age_s: float = 0.5
+    """A pose (the map's) older than this (s) while driving ends the run in a controlled stop:
+    the controller carries a pose forward by its own motion for at most
+    ``pose_prediction_max_s``, and beyond that the car is metres from where the pose says
+    (issue 19: a map 1 s late under load hit cones). The simulator's and replay's poses are
+    the tick's own."""
     late_plan_reaction_s: float = 0.2
     """A late plan must cover the controlled stop's distance plus the distance driven in this
     time (the control and actuator delay) ..."""
     late_plan_margin_m: float = 0.2
     """... plus this (m)."""
+    late_plan_slow_decel_mps2: float = 5.0
+    """On a late plan the controller drives no faster than a stop at this deceleration (with
+    the reaction and margin) fits in the manoeuvre left ahead: gentler than
+    ``stop_decel_mps2``, where the supervisor stops the car, so that the speed loop's lag
+    behind a falling cap stays short of that line (issue 19: at the same deceleration a plan
+    0.5 s late ended runs under load)."""
     no_path_timeout_s: float = 1.5
     """A plan with no feasible manoeuvre (the planner brakes) for this long ends the run."""
     critical_sources: tuple[str, ...] = ("imu", "lidar")
@@ -109,9 +121,10 @@ class ControllerConfig:
     hold_brake: float = 1.0
     """Brake held at standstill in READY and FINISHED."""
     max_dt_s: float = 0.1
-    pose_prediction_max_s: float = 0.3
+    pose_prediction_max_s: float = 0.5
     """The pose is carried forward to the control tick by its own motion over its age, at
     most this long (s; 0: as the map sent it): on the car the map is 20-120 ms old when it
-    reaches the control loop (controller/pose_prediction.py)."""
+    reaches the control loop, up to 0.4 s on a busy computer (controller/pose_prediction.py);
+    an older pose stops the car (``safety.pose_max_age_s``)."""
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     as_state: AsStateMachineConfig = field(default_factory=AsStateMachineConfig)

@@ -31,6 +31,7 @@ from controller.safety import (
     SafetyStatus,
     SafetySupervisor,
     StopKind,
+    late_plan_cap_rate_mps2,
     late_plan_speed_mps,
     manoeuvre_ahead_m,
 )
@@ -212,12 +213,15 @@ class Controller:
                 brake = 1.0
             else:
                 assert pose is not None and plan is not None
-                v_cap = math.inf
+                v_cap, cap_rate = math.inf, 0.0
                 if now_s - plan.timestamp_s > cfg.safety.plan_timeout_s:
                     # a late plan: no faster than its manoeuvre lets the car stop within it
+                    safety = cfg.safety
                     v_cap = late_plan_speed_mps(
-                        manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m), cfg.safety)
-                throttle, brake = self._speed_control(pose, path, speed, dt, v_cap)
+                        manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m), safety,
+                        safety.late_plan_slow_decel_mps2)
+                    cap_rate = late_plan_cap_rate_mps2(speed, v_cap, safety)
+                throttle, brake = self._speed_control(pose, path, speed, dt, v_cap, cap_rate)
         steer = steer_target if steer_target is not None else self.steer_limiter.value
         steer = clip(steer, -self.car.max_steer_rad, self.car.max_steer_rad)
         steer = self.steer_limiter.update(steer, dt)
@@ -234,14 +238,21 @@ class Controller:
         return self._path
 
     def _speed_control(self, pose: PoseEstimate, path: PathRef, speed: float, dt: float,
-                       v_cap_mps: float = math.inf) -> tuple[float, float]:
+                       v_cap_mps: float = math.inf, cap_rate_mps2: float = 0.0
+                       ) -> tuple[float, float]:
+        """(throttle, brake) toward the path's speed, no faster than ``v_cap_mps``; where the
+        cap holds the reference, the planned acceleration is at most ``cap_rate_mps2`` (how
+        fast the cap falls)."""
         cfg = self.config
         s_near, _ = path.nearest(pose.x_m, pose.y_m)
         s_ref = s_near + max(speed, 0.0) * cfg.speed_preview_s
-        v_ref = min(path.speed_at(s_ref), v_cap_mps)
+        v_path = path.speed_at(s_ref)
+        v_ref = min(v_path, v_cap_mps)
         span = max(speed * 0.5, 1.0)
         v_ahead = min(path.speed_at(s_ref + span), v_cap_mps)
         a_ff = (v_ahead * v_ahead - v_ref * v_ref) / (2.0 * span)
+        if v_cap_mps < v_path:
+            a_ff = min(a_ff, cap_rate_mps2)
         return self.longitudinal.update(v_ref, speed, a_ff, dt)
 
     def _controlled_stop(self, now_s: float, speed: float, speed_known: bool) -> float:

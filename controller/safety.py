@@ -67,11 +67,24 @@ def late_stop_distance_m(speed_mps: float, config: SafetyConfig) -> float:
             + speed_mps * config.late_plan_reaction_s + config.late_plan_margin_m)
 
 
-def late_plan_speed_mps(room_m: float, config: SafetyConfig) -> float:
-    """The highest speed (m/s) whose :func:`late_stop_distance_m` fits in ``room_m``."""
-    a, t = config.stop_decel_mps2, config.late_plan_reaction_s
+def late_plan_speed_mps(room_m: float, config: SafetyConfig, decel_mps2: float | None = None
+                        ) -> float:
+    """The highest speed (m/s) whose :func:`late_stop_distance_m` fits in ``room_m``; with
+    ``decel_mps2``, a stop at that deceleration instead of ``config.stop_decel_mps2``."""
+    a = config.stop_decel_mps2 if decel_mps2 is None else decel_mps2
+    t = config.late_plan_reaction_s
     room = max(room_m - config.late_plan_margin_m, 0.0)
     return -a * t + math.sqrt((a * t) ** 2 + 2.0 * a * room)
+
+
+def late_plan_cap_rate_mps2(speed_mps: float, cap_mps: float, config: SafetyConfig) -> float:
+    """How fast (m/s^2, <= 0) the controller's late-plan speed cap falls while the car drives
+    on at ``speed_mps``: the room shrinks at the car's speed, and the cap ``cap_mps`` with it,
+    at -speed / (d room / d cap) = -speed / (cap / a + reaction) (``a``:
+    ``config.late_plan_slow_decel_mps2``). The controller brakes at least this hard while the
+    cap holds it back, so the car slows with the cap instead of a speed loop's lag behind."""
+    a = config.late_plan_slow_decel_mps2
+    return -max(speed_mps, 0.0) / (max(cap_mps, 0.0) / a + config.late_plan_reaction_s)
 
 
 class StopKind(enum.IntEnum):
@@ -278,6 +291,9 @@ class SafetySupervisor:
         values = (pose.x_m, pose.y_m, pose.yaw_rad, pose.vx_mps, pose.vy_mps)
         if not all(math.isfinite(v) for v in values) or not np.all(np.isfinite(pose.covariance)):
             return "non-finite pose"
+        pose_age_s = now_s - pose.timestamp_s
+        if pose_age_s > c.pose_max_age_s:
+            return f"map too old: {pose_age_s:.3f} s"
         cov = pose.covariance
         limit = c.max_position_sigma_m
         # no eigenvalue of the symmetric block [[a, b], [b, d]] exceeds max(a, d) + |b|

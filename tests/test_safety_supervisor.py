@@ -144,6 +144,22 @@ def test_a_late_plan_that_covers_a_stop_is_followed_not_stopped_for() -> None:
     assert ctrl.stop_reason.startswith("plan too old: 1.080 s")
 
 
+def test_a_map_older_than_its_maximum_age_stops_the_car() -> None:
+    """A pose (the map's) older than ``pose_max_age_s`` (0.5 s) while driving: a controlled
+    stop with its own reason; one younger than that is driven on (the controller carries it
+    forward by its own motion)."""
+    ctrl = driving_controller()
+    max_age = ctrl.config.safety.pose_max_age_s
+    for k in range(3, 40):
+        t = 0.01 * k
+        ctrl.command(t, pose(min(t, 0.05)), straight_plan(t), health(t), None)
+        assert ctrl.safety.stop == StopKind.NONE, ctrl.stop_reason  # up to 0.34 s old
+    t = 0.05 + max_age + 0.02
+    ctrl.command(t, pose(0.05), straight_plan(t), health(t), None)
+    assert ctrl.safety.stop == StopKind.CONTROLLED
+    assert ctrl.stop_reason == f"map too old: {max_age + 0.02:.3f} s"
+
+
 def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
     """At 10 m/s a controlled stop (6 m/s^2) takes 8.3 m, plus 0.2 s of reaction (2 m) and
     the 0.2 m margin: a late plan with 5 m of manoeuvre left ahead of the car ends the run."""
