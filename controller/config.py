@@ -44,7 +44,9 @@ class SafetyConfig:
     behind a falling cap stays short of that line (issue 19: at the same deceleration a plan
     0.5 s late ended runs under load)."""
     no_path_timeout_s: float = 1.5
-    """A plan with no feasible manoeuvre (the planner brakes) for this long ends the run."""
+    """A plan with no manoeuvre or no feasible one (the controller brakes fully) for this long
+    ends the run; one that comes back before goes on (issue 19: under load the next cones of
+    an exploration were mapped 1.1 s after the car had stopped at the end of those seen)."""
     critical_sources: tuple[str, ...] = ("imu", "lidar")
     """Sources whose staleness is an emergency (full braking at once)."""
     max_position_sigma_m: float = 1.0

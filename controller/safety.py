@@ -320,13 +320,14 @@ class SafetySupervisor:
             self.late_plan_ticks += 1
         if self.laps is not None and plan.lap >= self.laps:
             return f"finished: {plan.lap} laps"
-        if len(plan.manoeuvre) == 0:
-            return "no manoeuvre"
-        if plan.chosen_index < 0:
+        # no manoeuvre (exploring: the track seen so far ends at the car) or none feasible:
+        # the controller brakes, and the planner has no_path_timeout_s to find one again (a
+        # busy computer maps the next cones late)
+        if len(plan.manoeuvre) == 0 or plan.chosen_index < 0:
             if not math.isfinite(self._no_path_since_s):
                 self._no_path_since_s = now_s
             elif now_s - self._no_path_since_s > c.no_path_timeout_s:
-                return "no feasible path"
+                return "no manoeuvre" if len(plan.manoeuvre) == 0 else "no feasible path"
         else:
             self._no_path_since_s = math.nan
         bf = plan.baseframe

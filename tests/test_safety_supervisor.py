@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 from safety_helpers import driving_controller, health, pose, straight_plan
 
-from common.messages import AsState, PoseEstimate, RemoteStop
+from common.messages import AsState, Plan, PoseEstimate, RemoteStop, TargetStates
 from controller.controller import Controller
 from controller.safety import SafetySupervisor, StopKind
 from orchestrator.config import AppConfig
@@ -158,6 +159,38 @@ def test_a_map_older_than_its_maximum_age_stops_the_car() -> None:
     ctrl.command(t, pose(0.05), straight_plan(t), health(t), None)
     assert ctrl.safety.stop == StopKind.CONTROLLED
     assert ctrl.stop_reason == f"map too old: {max_age + 0.02:.3f} s"
+
+
+def _without_manoeuvre(plan: Plan) -> Plan:
+    """``plan`` with an empty manoeuvre and no candidate chosen (exploring: the track seen so
+    far ends at the car)."""
+    empty = np.zeros(0)
+    return dataclasses.replace(
+        plan, manoeuvre=TargetStates(empty, empty, empty, empty, empty, empty), chosen_index=-1)
+
+
+def test_a_plan_without_manoeuvre_brakes_and_is_waited_for_before_the_run_ends() -> None:
+    """No manoeuvre (the next cones not mapped yet): full brake at once, and the run goes on
+    when a manoeuvre comes back within ``no_path_timeout_s`` (1.5 s); without one for longer,
+    a controlled stop, "no manoeuvre"."""
+    ctrl = driving_controller()
+    timeout = ctrl.config.safety.no_path_timeout_s
+    for k in range(3, 103):  # 1 s without a manoeuvre
+        t = 0.01 * k
+        cmd = ctrl.command(t, pose(t, v=1.0), _without_manoeuvre(straight_plan(t)), health(t),
+                           None)
+        assert ctrl.safety.stop == StopKind.NONE, ctrl.stop_reason
+        assert cmd.brake == 1.0 and cmd.throttle == 0.0
+    t = 1.03
+    cmd = ctrl.command(t, pose(t, v=0.0), straight_plan(t), health(t), None)
+    assert ctrl.safety.stop == StopKind.NONE and cmd.throttle > 0.0  # the path is back
+    start = 1.04
+    t = start
+    while t < start + timeout + 0.05:
+        ctrl.command(t, pose(t, v=0.0), _without_manoeuvre(straight_plan(t)), health(t), None)
+        t += 0.01
+    assert ctrl.safety.stop == StopKind.CONTROLLED
+    assert ctrl.stop_reason == "no manoeuvre"
 
 
 def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
