@@ -314,7 +314,8 @@ class SafetySupervisor:
                 return f"plan too old: {age:.3f} s"
             ahead = manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m)
             need = late_stop_distance_m(max(pose.vx_mps, 0.0), c)
-            if ahead < need:
+            # a standing car (at the end of the track seen so far) needs no room to stop in
+            if ahead < need and pose.vx_mps > c.standstill_speed_mps:
                 return (f"plan too old: {age:.3f} s, its {ahead:.1f} m ahead do not cover a "
                         f"stop ({need:.1f} m)")
             self.late_plan_ticks += 1

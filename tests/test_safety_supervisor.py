@@ -205,6 +205,19 @@ def test_a_late_plan_that_ends_too_soon_stops_the_car() -> None:
     assert "do not cover a stop" in ctrl.stop_reason
 
 
+def test_a_late_plan_is_no_reason_to_stop_a_standing_car() -> None:
+    """At the end of the track seen so far the car stands with no manoeuvre ahead: a late plan
+    (0.3 s) is no stop while the car stands; once it rolls, the same plan stops it."""
+    ctrl = driving_controller()
+    late = straight_plan(0.02)
+    t = 0.32
+    ctrl.command(t, pose(t, x=300.0, v=0.0), late, health(t), None)
+    assert ctrl.safety.stop == StopKind.NONE, ctrl.stop_reason
+    t = 0.33
+    ctrl.command(t, pose(t, x=300.0, v=1.0), late, health(t), None)
+    assert "do not cover a stop" in ctrl.stop_reason
+
+
 def test_a_late_plan_caps_the_speed_to_what_its_manoeuvre_lets_the_car_stop_in() -> None:
     """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 11 m/s (a stop
     takes 10.1 m, 2.2 m of reaction and the 0.2 m margin: covered): fresh, the car accelerates
