@@ -207,6 +207,13 @@ class FusionConfig:
 
     max_delay_s: float = 0.3
     """A source silent for longer than this no longer holds the lagged filter back."""
+    imu_coalesce_backlog_s: float = 0.0
+    """When one update takes IMU samples spanning more than this (s), each two consecutive
+    ones are predicted as one (:mod:`mapper.imu_coalesce`): a mapper behind its sensors
+    catches up. 0: every sample is predicted (the simulator and replay, whose map updates
+    take what came in one tick); ``drive`` uses
+    ``orchestrator.live_worker.DRIVE_IMU_COALESCE_BACKLOG_S`` when this is 0; negative: never,
+    in ``drive`` too."""
     freeze_gap_s: float = 1.0
     """No reading at all for this long (s, on the caller's clock): the stack itself was not
     run (a stalled computer), not every sensor dead. The silence is not counted against the

@@ -48,6 +48,7 @@ from mapper.config import MapperConfig
 from mapper.delay_buffer import DelayBuffer
 from mapper.gnss_frame import GnssFrameEstimator
 from mapper.gnss_timing import GnssTiming
+from mapper.imu_coalesce import coalesce_imu
 from mapper.imu_mount import ImuMount
 from mapper.map_localiser import MapLocaliser
 from mapper.motion import predict_forward
@@ -149,7 +150,11 @@ class Mapper:
                 r = self._gnss_timing.retime(r)
             if self.buffer.push(stream, r, now_s) and isinstance(r, ImuSample):
                 self._recent_imu.append(r)
-        for stream, r in self.buffer.pop_ready(now_s):
+        ready, merged = coalesce_imu(self.buffer.pop_ready(now_s),
+                                     self.config.fusion.imu_coalesce_backlog_s)
+        if merged:
+            self._counts.setdefault("imu", Counter())["coalesced"] += merged
+        for stream, r in ready:
             try:
                 self._apply(r)
             except (ValueError, np.linalg.LinAlgError, FloatingPointError) as exc:

@@ -7,7 +7,10 @@ message that does not match what its reader expects fails at the reader's ``isin
 
 To the reactive layer: :class:`Loaded`, :class:`PoseUpdate`, :class:`PlanUpdate`,
 :class:`HealthUpdate`, :class:`LayerError`, :class:`Final`. From it: :class:`Start`,
-:class:`ControlTick`, :class:`Stop`.
+:class:`ControlTick`, :class:`Stop`. Between the executive process and the planner's
+(:mod:`orchestrator.live_planner`): :class:`Loaded`, :class:`MapRequest`, :class:`PlanUpdate`,
+:class:`LayerError`, :class:`Final` from the planner; :class:`Start`, :class:`PlannerInput`,
+:class:`Stop` to it.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from common.messages import (
     ActuatorCommand,
     CanFrame,
     Health,
+    MapState,
     Plan,
     PoseEstimate,
     RawBytes,
@@ -94,3 +98,20 @@ class Final:
     """The executive process's statistics at its end (stage times, lags, output hash...)."""
 
     stats: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class MapRequest:
+    """The planner is due to plan: it asks for the newest map (:class:`PlannerInput`)."""
+
+
+@dataclass(frozen=True, slots=True)
+class PlannerInput:
+    """What the planner plans on: the executive's newest ``map_state`` (None before the first),
+    the ``poses`` of the map updates since the last request (the exploration records its
+    waypoints from them), the RES ``go`` and whether the car is ``driving``."""
+
+    map_state: MapState | None
+    poses: tuple[PoseEstimate, ...] = ()
+    go: bool = False
+    driving: bool = False

@@ -181,6 +181,10 @@ class DeliberativeLayer:
         """Every map state, planned on or not (the planner records the waypoints driven)."""
         self.planner.observe(map_state)
 
+    def observe_pose(self, pose: PoseEstimate) -> None:
+        """The pose of every map state (:meth:`observe` where the map state stays elsewhere)."""
+        self.planner.observe_pose(pose)
+
     def ready(self, map_state: MapState, go: bool, driving: bool) -> bool:
         """Autonomous planning starts once the loop is closed (the map is fixed), at the RES
         "go" or once the car drives (the planner then uses what it has)."""

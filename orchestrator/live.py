@@ -6,10 +6,11 @@
   Controller for a command and sends it on CAN. The only other thread of this process is the
   CAN receiver, so nothing heavy shares its GIL; it never waits for the other layers: their
   results arrive as messages it drains without blocking (:mod:`orchestrator.live_link`).
-- Executive layer (sensor receivers and parsing, the Mapper, recording, rendering) and
-  deliberative layer (the planner) run in a separate process, :mod:`orchestrator.live_worker`
-  (``multiprocessing``, spawn). This process forwards the CAN frames and its commands to it
-  each tick; it sends back each pose, each plan and the sensors' health.
+- Executive layer (sensor receivers and parsing, the Mapper, recording, rendering) runs in a
+  separate process, :mod:`orchestrator.live_worker` (``multiprocessing``, spawn), and starts
+  the deliberative layer (the planner) in a third, :mod:`orchestrator.live_planner`. This
+  process forwards the CAN frames and its commands to the executive each tick; it sends back
+  each pose, each plan (the planner's, sent on) and the sensors' health.
 
 A source's health comes with the time it was measured; here its age is advanced to now, so a
 stalled or dead executive process makes its sources stale (the safety supervisor stops the car).

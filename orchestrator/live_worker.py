@@ -11,8 +11,9 @@ the control loop. Here:
   units, drops stale readings, updates the Mapper) on whatever arrived, lets the deliberative
   layer observe each map state, sends each new pose to the control process and steps the
   :class:`~orchestrator.layers.OutputLayer` (map states to the recording, frames);
-- thread ``planner`` runs the :class:`~orchestrator.layers.DeliberativeLayer` at
-  ``run.plan_rate_hz`` (its rate keeper sets the wake-ups) and sends each plan;
+- the :class:`~orchestrator.layers.DeliberativeLayer` (the planner) runs in a process of its
+  own, :mod:`orchestrator.live_planner`, started here; thread ``planner`` answers its requests
+  for the newest map and sends each plan it makes on to the control process and the recording;
 - thread ``health`` sends the sensors' health at :data:`HEALTH_RATE_HZ`;
 - the main thread takes the control process's messages: CAN frames for the mapper, commands and
   health for the recording, :class:`~orchestrator.layer_messages.Stop`.
@@ -31,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import logging
+import multiprocessing as mp
 import resource
 import signal
 import socket
@@ -47,6 +49,7 @@ from common.messages import (
     AsState,
     CanFrame,
     Plan,
+    PoseEstimate,
     RawBytes,
     Reading,
     RemoteStop,
@@ -58,13 +61,16 @@ from orchestrator.layer_messages import (
     HealthUpdate,
     LayerError,
     Loaded,
+    MapRequest,
+    PlannerInput,
     PlanUpdate,
     PoseUpdate,
     Start,
     Stop,
 )
-from orchestrator.layers import DeliberativeLayer, ExecutiveLayer, OutputLayer
-from orchestrator.live_link import Link
+from orchestrator.layers import ExecutiveLayer, OutputLayer
+from orchestrator.live_link import Link, link_pair
+from orchestrator.live_planner import PlannerServer, planner_main, planner_niceness
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
 from orchestrator.priority import lock_memory, set_niceness
@@ -80,6 +86,16 @@ HEALTH_RATE_HZ = 100.0
 """How often the sensors' health goes to the control process (its staleness check ages it)."""
 IDLE_SLEEP_S = 0.002
 """The executive layer's wait when no sensor data came."""
+PLANNER_START_TIMEOUT_S = 60.0
+"""Longest wait (s) for the planner process to build its layer."""
+PLANNER_STOP_TIMEOUT_S = 5.0
+"""Longest wait (s) for the planner process's statistics at the end."""
+DRIVE_IMU_COALESCE_BACKLOG_S = 0.15
+"""``mapper.fusion.imu_coalesce_backlog_s`` in ``drive`` (when 0 in the configuration): a map
+update that takes more IMU samples than this long predicts them two at a time. A LiDAR sweep
+holds the map back about 0.1 s; on a busy computer one update took 0.3 s of them (issue 19)."""
+POSE_BACKLOG = 1000
+"""Poses kept for the planner to observe between its requests (about 10 s of map updates)."""
 
 
 def worker_sensors(config: AppConfig) -> SensorsConfig:
@@ -108,11 +124,13 @@ def _merge_by_time(a: list[Any], b: list[Any]) -> list[Any]:
 
 
 class Worker:
-    """The executive and deliberative layers, their sensors, the recording and the visualiser."""
+    """The executive layer, its sensors, the recording and the visualiser, and the link to the
+    planner's process (``planner_in_thread``: the planner served from a thread of this process
+    instead, over the same link, for tests)."""
 
     def __init__(self, config: AppConfig, options: DriveOptions, clock: RealClock,
-                 link: Link) -> None:
-        from orchestrator.managers import make_mapper, make_planner, make_sensors
+                 link: Link, planner_in_thread: bool = False) -> None:
+        from orchestrator.managers import make_mapper, make_sensors
         from recordings.recorder import Recorder
 
         self.config = config
@@ -122,6 +140,8 @@ class Worker:
         self.sensors = make_sensors(config, clock, worker_sensors(config))
         # on the car the racing line is built beside the planner's loop, not in it
         config.planner.racing_line_background = True
+        if config.mapper.fusion.imu_coalesce_backlog_s == 0.0:
+            config.mapper.fusion.imu_coalesce_backlog_s = DRIVE_IMU_COALESCE_BACKLOG_S
         self.hasher = HashSink()
         self.recorder: Any = None
         if options.record:
@@ -138,8 +158,16 @@ class Worker:
         run = config.run
         self.executive = ExecutiveLayer(make_mapper(config) if options.control else None,
                                         run.stale_input_s, self.recorder, self.live)
-        self.deliberative = (DeliberativeLayer(make_planner(config), run.plan_rate_hz)
-                             if options.control else None)
+        self.planner_link: Link | None = None
+        self.planner_process: Any = None
+        self.planner_server: PlannerServer | None = None
+        """The planner served from a thread (``planner_in_thread``), else None."""
+        self._planner_thread: threading.Thread | None = None
+        self.planner_stats: dict[str, Any] = {}
+        self._poses: deque[PoseEstimate] = deque(maxlen=POSE_BACKLOG)
+        self._plan: Plan | None = None
+        if options.control:
+            self._start_planner(planner_in_thread)
         sinks = [self.hasher] + ([self.recorder] if self.recorder is not None else [])
         self.output = OutputLayer(sinks, run.output_record_rate_hz, config.visualiser.fps,
                                   self.recorder, self.visualiser, self.live)
@@ -155,13 +183,72 @@ class Worker:
         """Whether this process's memory is locked in RAM (drive in real-time mode)."""
 
     @property
-    def planner(self) -> Any:
-        return self.deliberative.planner if self.deliberative is not None else None
-
-    @property
     def plan(self) -> Plan | None:
-        """The deliberative layer's last plan (None before the first, or record-only)."""
-        return self.deliberative.plan if self.deliberative is not None else None
+        """The planner's last plan (None before the first, or record-only)."""
+        return self._plan
+
+    # ------------------------------------------------------------------ the planner's process
+    def _start_planner(self, in_thread: bool) -> None:
+        ours, theirs = link_pair()
+        if in_thread:
+            self.planner_server = PlannerServer(self.config, Link(theirs), self.clock)
+            self._planner_thread = threading.Thread(target=self.planner_server.run,
+                                                    name="planner-server", daemon=True)
+            self._planner_thread.start()
+        else:
+            # not a daemon: it starts the racing line's process
+            self.planner_process = mp.get_context("spawn").Process(
+                target=planner_main, name="fsd-planner",
+                args=(self.config, theirs, logging.getLogger().getEffectiveLevel(),
+                      planner_niceness(self.options.executive_niceness),
+                      self.options.realtime_priority > 0))
+            self.planner_process.start()
+            theirs.close()
+        self.planner_link = Link(ours)
+
+    def _planner_loaded(self) -> bool:
+        """Wait until the planner has built its layer; False (the error sent) if it did not."""
+        link = self.planner_link
+        if link is None:
+            return True
+        end = time.monotonic() + PLANNER_START_TIMEOUT_S
+        while not link.closed and time.monotonic() < end:
+            for message in link.recv(0.05):
+                if isinstance(message, Loaded):
+                    return True
+                if isinstance(message, LayerError):
+                    self._report(message.text)
+                    return False
+        self._report("planner: the planner process did not start")
+        return False
+
+    def _report(self, text: str) -> None:
+        """An error of the run: logged, sent to the control process, and the run stops."""
+        log.error("%s", text)
+        self.errors.append(text)
+        self.link.send(LayerError(text))
+        self.stop.set()
+
+    def _stop_planner(self) -> None:
+        """Stop the planner, take its statistics, and end its process or thread."""
+        link = self.planner_link
+        if link is None:
+            return
+        link.send(Stop())
+        end = time.monotonic() + PLANNER_STOP_TIMEOUT_S
+        while not self.planner_stats and not link.closed and time.monotonic() < end:
+            for message in link.recv(0.1):
+                if isinstance(message, Final):
+                    self.planner_stats = message.stats
+        link.close()
+        if self.planner_process is not None:
+            self.planner_process.join(PLANNER_STOP_TIMEOUT_S)
+            if self.planner_process.is_alive():
+                log.error("the planner process did not end: killing it")
+                self.planner_process.kill()
+                self.planner_process.join(PLANNER_STOP_TIMEOUT_S)
+        if self._planner_thread is not None:
+            self._planner_thread.join(PLANNER_STOP_TIMEOUT_S)
 
     def _fail(self, layer: str, exc: BaseException) -> None:
         log.exception("%s layer failed", layer)
@@ -194,45 +281,49 @@ class Worker:
                 raw = _merge_by_time(list(batch.raw), can_raw)
                 readings = self.executive.admit(
                     now_s, raw, _merge_by_time(list(batch.readings), can_readings))
-                if self.deliberative is None:
+                if self.executive.mapper is None:
                     continue  # record only
                 t0 = time.perf_counter()
                 map_state = self.executive.step(now_s, readings)
                 self.times.add("mapper", time.perf_counter() - t0)
                 self.link.send(PoseUpdate(map_state.pose, map_state.loop_closed,
                                           len(map_state.cones)))
-                self.deliberative.observe(map_state)
+                self._poses.append(map_state.pose)  # the planner observes them all
                 self.output.step(now_s, map_state, self.plan, self.command)
             except Exception as exc:  # a crash here must stop the car, never go silent
                 self._fail("mapper", exc)
 
     def _deliberative(self) -> None:
-        layer = self.deliberative
-        assert layer is not None
-        rate = layer.rate
+        """Serve the planner's process: the newest map when it asks, its plans on to the
+        control process and the recording."""
+        link = self.planner_link
+        assert link is not None
         while not self.stop.is_set():
-            try:
-                # before the first plan: look again a period later
-                self.clock.sleep_until(rate.next_s if rate.next_s is not None
-                                       else self.clock.now_s() + rate.period_s)
-                map_state = self.executive.map_state
-                if map_state is None:
-                    continue
-                go = self.remote is not None and self.remote.go
-                driving = self.command is not None and self.command.state == AsState.DRIVING
-                now_s = self.clock.now_s()
-                started = layer.autonomous_started
-                t0 = time.perf_counter()
-                plan = layer.step(now_s, map_state, go, driving)
-                if not started and layer.start_s is not None:
-                    self.times.add("start_autonomous", layer.start_s)
-                if plan is None:
-                    continue
-                self.times.add("planner", time.perf_counter() - t0)
-                self.link.send(PlanUpdate(plan))
-                self.output.emit(PLAN, plan, now_s)
-            except Exception as exc:
-                self._fail("planner", exc)
+            for message in link.recv(0.05):
+                self._on_planner_message(message)
+            if link.closed and not self.stop.is_set():
+                self._report("planner: the planner process is gone")
+
+    def _on_planner_message(self, message: Any) -> None:
+        link = self.planner_link
+        assert link is not None
+        if isinstance(message, MapRequest):
+            poses: list[PoseEstimate] = []
+            while self._poses:
+                poses.append(self._poses.popleft())
+            go = self.remote is not None and self.remote.go
+            driving = self.command is not None and self.command.state == AsState.DRIVING
+            link.send(PlannerInput(self.executive.map_state, tuple(poses), go, driving))
+        elif isinstance(message, PlanUpdate):
+            self._plan = message.plan
+            self.link.send(message)
+            self.output.emit(PLAN, message.plan, message.plan.timestamp_s)
+        elif isinstance(message, LayerError):
+            self._report(message.text)
+        elif isinstance(message, Final):
+            self.planner_stats = message.stats
+        else:
+            log.warning("unknown message from the planner process: %r", type(message).__name__)
 
     def _health(self) -> None:
         period_s = 1.0 / HEALTH_RATE_HZ
@@ -280,11 +371,13 @@ class Worker:
 
         self.sensors = make_sensors(self.config, clock, worker_sensors(self.config))
         self.sensors.start()
+        if self.planner_link is not None:
+            self.planner_link.send(Start(clock))
 
     def run(self) -> None:
         """Start the layers, serve the control process until the end, then shut down."""
         layers = [("mapper", self._executive), ("health", self._health)]
-        if self.deliberative is not None:
+        if self.planner_link is not None:
             layers.append(("planner", self._deliberative))
         threads = [threading.Thread(target=self._guarded, args=(name, body), name=name,
                                     daemon=True) for name, body in layers]
@@ -296,6 +389,10 @@ class Worker:
             self.memory_locked = lock_memory("executive process")
         self.gc_times = GcTimes()
         gc.callbacks.append(self.gc_times)
+        if not self._planner_loaded():
+            self._stop_planner()
+            self.link.send(Final({"errors": self.errors}))
+            return
         self.link.send(Loaded())
         started = False
         try:
@@ -331,7 +428,7 @@ class Worker:
                                 ("recorder", getattr(self.recorder, "close", None)),
                                 ("live view", getattr(self.live, "close", None)),
                                 ("visualiser", getattr(self.visualiser, "close", None)),
-                                ("planner", getattr(self.planner, "close", None))):
+                                ("planner", self._stop_planner)):
                 if close is None:
                     continue
                 try:
@@ -339,7 +436,8 @@ class Worker:
                 except Exception:
                     log.exception("closing the %s failed", name)
         stats: dict[str, Any] = {
-            "stages_ms": self.times.summary_ms(),
+            "stages_ms": {**self.times.summary_ms(),
+                          **self.planner_stats.get("stages_ms", {})},
             "lags_ms": self._lags_ms(),
             "outputs_sha256": self.hasher.hexdigest(),
             "errors": self.errors,
@@ -362,8 +460,7 @@ class Worker:
         their rates (ms)."""
         lags = {"mapper": self.executive.summary_ms(),
                 "outputs": self.output.output_rate.summary_ms()}
-        if self.deliberative is not None:
-            lags["planner"] = self.deliberative.rate.summary_ms()
+        lags.update(self.planner_stats.get("lags_ms", {}))
         return lags
 
 

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from common.car import CarConfig
 from common.errors import TrackError
-from common.messages import Baseframe, ConeColour, MapState, Plan, TargetStates
+from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
@@ -101,9 +101,12 @@ class PathPlanner:
     # ------------------------------------------------------------------ phases
     def observe(self, map_state: MapState) -> None:
         """Record a waypoint from the estimated pose (exploration drive only)."""
+        self.observe_pose(map_state.pose)
+
+    def observe_pose(self, pose: PoseEstimate) -> None:
+        """Record a waypoint from ``pose`` (exploration drive only)."""
         if self.autonomous:
             return
-        pose = map_state.pose
         if not self.book.record(pose.x_m, pose.y_m) and not (
             math.isfinite(pose.x_m) and math.isfinite(pose.y_m)
         ):

@@ -144,16 +144,22 @@ def test_executive_process_killed_stops_the_car(tmp_path: Path) -> None:
     assert ends_with_full_brake(car.commands)
 
 
-def test_an_executive_process_that_cannot_start_stops_the_run(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("rate", "process"), [("output_record_rate_hz", "executive"),
+                                               ("plan_rate_hz", "planner")])
+def test_an_executive_process_that_cannot_start_stops_the_run(tmp_path: Path, rate: str,
+                                                               process: str) -> None:
+    """A rate of 0 Hz: the layer's rate keeper refuses it as its process starts (the output
+    layer's in the executive process, the planner's in its own), and the run stops with that
+    error before the car is driven."""
     config = live_config()
-    config.run.plan_rate_hz = 0.0  # the deliberative layer's rate keeper refuses it
+    setattr(config.run, rate, 0.0)
     car = Car(config.sensors.can.channel)
     try:
         summary = LiveMain(config, DriveOptions(tmp_path, seconds=30.0,
                                                 realtime_priority=0)).run()
     finally:
         car.close()
-    assert summary["stop_reason"].startswith("executive start: ValueError"), summary
+    assert summary["stop_reason"].startswith(f"{process} start: ValueError"), summary
     assert "rate must be > 0" in summary["stop_reason"]
     assert not any(c.throttle > 0.0 for c in car.commands)  # the car was never driven
     assert summary["as_state"] != "DRIVING"
@@ -161,19 +167,21 @@ def test_an_executive_process_that_cannot_start_stops_the_run(tmp_path: Path) ->
 
 def test_a_failing_layer_thread_reports_its_error_and_closes_the_recording(
         tmp_path: Path) -> None:
-    """The executive process's layers in-process, the planner's step made to fail once the
-    RES says go: the worker sends the error, stops its threads, closes its recording and sends
+    """The executive process's layers in-process (the planner's server in a thread, over the
+    same link as its process), the planner's step made to fail once the RES says go: the
+    worker sends the error, stops its threads, closes its recording and sends
     its statistics (LiveMain then stops the car: the test above)."""
     config = live_config()
     ours, theirs = link_pair()
     link, peer = Link(theirs), Link(ours)
-    worker = Worker(config, DriveOptions(tmp_path, realtime_priority=0), RealClock(), link)
-    assert worker.deliberative is not None
+    worker = Worker(config, DriveOptions(tmp_path, realtime_priority=0), RealClock(), link,
+                    planner_in_thread=True)
+    assert worker.planner_server is not None
 
     def fail(*_args: object) -> None:
         raise ZeroDivisionError("planned to fail")
 
-    worker.deliberative.step = fail  # type: ignore[method-assign,assignment]
+    worker.planner_server.layer.step = fail  # type: ignore[method-assign,assignment]
     thread = threading.Thread(target=worker.run)
     thread.start()
     received: list[object] = []
