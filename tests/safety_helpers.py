@@ -17,6 +17,8 @@ from common.messages import (
 )
 from controller.controller import Controller
 from orchestrator.config import AppConfig
+from planner.baseframe import SplineBaseframe
+from planner.path_planner import PathPlanner
 
 
 def straight_plan(t: float, lap: int = 0, speed: float = 10.0) -> Plan:
@@ -51,3 +53,23 @@ def driving_controller(config: AppConfig | None = None) -> Controller:
                  RemoteStop(0.02, False, True))
     assert ctrl.state == AsState.DRIVING
     return ctrl
+
+
+def straight_manoeuvre_plan(planner: PathPlanner, x_m: float, speed_mps: float,
+                            path_speed_mps: float, t_s: float, length_m: float) -> Plan:
+    """The planner's chosen manoeuvre from (``x_m``, 0) heading +x at ``speed_mps`` along a
+    straight of ``length_m`` from x = 0 with no cones, asking ``path_speed_mps`` all along, as
+    the Plan it sends at ``t_s``."""
+    x = np.arange(0.0, length_m, 2.0)
+    frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
+    cands, best = planner.generator.generate(frame, x_m, 0.0, 0.0, speed_mps, np.zeros((0, 2)),
+                                             None)
+    assert best >= 0
+    chosen = cands[best]
+    n = len(chosen.xy_m)
+    targets = TargetStates(np.full(n, t_s), chosen.xy_m[:, 0], chosen.xy_m[:, 1],
+                           chosen.heading_rad, np.full(n, path_speed_mps),
+                           chosen.curvature_1pm)
+    z = np.zeros_like(x)
+    baseframe = Baseframe(x, x, z, z, z, closed=False, length_m=length_m)
+    return Plan(t_s, baseframe, targets, path_speed_mps, chosen_index=0)

@@ -15,15 +15,13 @@ import dataclasses
 
 import numpy as np
 import pytest
-from safety_helpers import health
+from safety_helpers import health, straight_manoeuvre_plan
 
-from common.messages import Baseframe, Plan, PoseEstimate, RemoteStop, TargetStates
+from common.messages import Plan, PoseEstimate, RemoteStop
 from controller.controller import Controller
 from controller.safety import StopKind, late_stop_distance_m, manoeuvre_ahead_m
 from orchestrator.config import AppConfig
 from orchestrator.managers import make_planner
-from planner.baseframe import SplineBaseframe
-from planner.path_planner import PathPlanner
 from simulator.vehicle import Vehicle
 
 DT_S = 0.01
@@ -33,30 +31,11 @@ LAST_PLAN_S = 1.5
 STRAIGHT_M = 600.0
 
 
-def _plan(planner: PathPlanner, frame: SplineBaseframe, x_m: float, speed_mps: float,
-          t_s: float) -> Plan:
-    """The generator's chosen manoeuvre from (x_m, 0) heading +x at ``speed_mps``, asking
-    ``PATH_SPEED_MPS`` all along, as the Plan the planner sends at ``t_s``."""
-    cands, best = planner.generator.generate(frame, x_m, 0.0, 0.0, speed_mps, np.zeros((0, 2)),
-                                             None)
-    assert best >= 0
-    chosen = cands[best]
-    n = len(chosen.xy_m)
-    targets = TargetStates(np.full(n, t_s), chosen.xy_m[:, 0], chosen.xy_m[:, 1],
-                           chosen.heading_rad, np.full(n, PATH_SPEED_MPS), chosen.curvature_1pm)
-    x = np.arange(0.0, STRAIGHT_M, 2.0)
-    z = np.zeros_like(x)
-    baseframe = Baseframe(x, x, z, z, z, closed=False, length_m=STRAIGHT_M)
-    return Plan(t_s, baseframe, targets, PATH_SPEED_MPS, chosen_index=0)
-
-
 def _drive(config: AppConfig, start_speed_mps: float
            ) -> tuple[Controller, list[tuple[float, float, float]]]:
     """Drive until a stop or 0.1 s past the plan's maximum age; the controller and, per tick
     with a late plan, (plan age (s), speed (m/s), manoeuvre left ahead (m))."""
     planner = make_planner(config)
-    x = np.arange(0.0, STRAIGHT_M, 2.0)
-    frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
     ctrl = Controller(config.controller, config.car, laps=5)
     vehicle = Vehicle(config.car)
     vehicle.state.vx_mps = start_speed_mps
@@ -67,7 +46,8 @@ def _drive(config: AppConfig, start_speed_mps: float
         t = k * DT_S
         st = vehicle.state
         if t <= LAST_PLAN_S + 1e-9 and k % int(round(PLAN_PERIOD_S / DT_S)) == 0:
-            plan = _plan(planner, frame, st.x_m, st.vx_mps, t)
+            plan = straight_manoeuvre_plan(planner, st.x_m, st.vx_mps, PATH_SPEED_MPS, t,
+                                           STRAIGHT_M)
         assert plan is not None
         pose = PoseEstimate(t, st.x_m, st.y_m, st.yaw_rad, st.vx_mps, st.vy_mps, 0.0,
                             np.diag([0.05**2, 0.05**2, 0.01**2]))

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from safety_helpers import driving_controller, health, pose
+from safety_helpers import driving_controller, health, pose, straight_manoeuvre_plan
 
-from common.messages import Baseframe, Plan, TargetStates
+from common.messages import Plan
 from controller.safety import StopKind, late_stop_distance_m, manoeuvre_ahead_m
 from orchestrator.config import AppConfig
 from orchestrator.managers import make_planner
@@ -19,18 +19,7 @@ from planner.path_planner import PathPlanner
 def _straight_manoeuvre(planner: PathPlanner, speed_mps: float, t_s: float) -> Plan:
     """The planner's manoeuvre from (0, 0) heading +x at ``speed_mps`` along a 400 m straight
     with no cones, as the Plan it sends (timestamp ``t_s``)."""
-    x = np.arange(0.0, 400.0, 2.0)
-    frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
-    cands, best = planner.generator.generate(frame, 0.0, 0.0, 0.0, speed_mps, np.zeros((0, 2)),
-                                             None)
-    assert best >= 0
-    chosen = cands[best]
-    n = len(chosen.xy_m)
-    targets = TargetStates(np.full(n, t_s), chosen.xy_m[:, 0], chosen.xy_m[:, 1],
-                           chosen.heading_rad, np.full(n, speed_mps), chosen.curvature_1pm)
-    z = np.zeros_like(x)
-    baseframe = Baseframe(x, x, z, z, z, closed=False, length_m=400.0)
-    return Plan(t_s, baseframe, targets, speed_mps, chosen_index=0)
+    return straight_manoeuvre_plan(planner, 0.0, speed_mps, speed_mps, t_s, 400.0)
 
 
 @pytest.mark.parametrize("speed_mps", [5.0, 12.0, 15.3, 20.0])
