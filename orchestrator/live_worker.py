@@ -8,8 +8,8 @@ the control loop. Here:
   camera); the CAN frames (and their decoded readings) come from the control process with
   every control tick;
 - thread ``mapper`` runs the :class:`~orchestrator.layers.ExecutiveLayer` (records the raw
-  units, drops stale readings, updates the Mapper) on whatever arrived, lets the deliberative
-  layer observe each map state, sends each new pose to the control process and steps the
+  units, drops stale readings, updates the Mapper) on whatever arrived, keeps each map state's
+  pose for the planner to observe, sends each new pose to the control process and steps the
   :class:`~orchestrator.layers.OutputLayer` (map states to the recording, frames);
 - the :class:`~orchestrator.layers.DeliberativeLayer` (the planner) runs in a process of its
   own, :mod:`orchestrator.live_planner`, started here; thread ``planner`` answers its requests
@@ -389,11 +389,10 @@ class Worker:
             self.memory_locked = lock_memory("executive process")
         self.gc_times = GcTimes()
         gc.callbacks.append(self.gc_times)
-        if not self._planner_loaded():
-            self._stop_planner()
-            self.link.send(Final({"errors": self.errors}))
-            return
-        self.link.send(Loaded())
+        # a planner that did not start stops the run (the error is sent): the layers are shut
+        # down below as after any other error, and the statistics sent
+        if self._planner_loaded():
+            self.link.send(Loaded())
         started = False
         try:
             while not self.stop.is_set() and not started:
