@@ -35,8 +35,10 @@ def coalesce_imu(ready: Sequence[tuple[str, Reading]], backlog_s: float
     """``ready`` (stream, reading) in time order, with each two consecutive IMU samples (no
     other reading between them) merged when the IMU samples in it span more than
     ``backlog_s`` (s; 0: never); the readings and how many merges were made."""
+    if backlog_s <= 0.0:  # the simulator's and replay's every tick: nothing to look at
+        return list(ready), 0
     imu_times = [r.timestamp_s for _, r in ready if isinstance(r, ImuSample)]
-    if backlog_s <= 0.0 or len(imu_times) < 2 or imu_times[-1] - imu_times[0] <= backlog_s:
+    if len(imu_times) < 2 or imu_times[-1] - imu_times[0] <= backlog_s:
         return list(ready), 0
     out: list[tuple[str, Reading]] = []
     held: tuple[str, ImuSample] | None = None

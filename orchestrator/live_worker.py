@@ -138,8 +138,6 @@ class Worker:
         self.clock = clock
         self.link = link
         self.sensors = make_sensors(config, clock, worker_sensors(config))
-        # on the car the racing line is built beside the planner's loop, not in it
-        config.planner.racing_line_background = True
         if config.mapper.fusion.imu_coalesce_backlog_s == 0.0:
             config.mapper.fusion.imu_coalesce_backlog_s = DRIVE_IMU_COALESCE_BACKLOG_S
         self.hasher = HashSink()
