@@ -17,12 +17,12 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from common.conventions import wrap_angle
 from common.messages import ConeDetection, ConeMap
+from mapper.spd_solve import cho_solve_lower, cholesky_lower
 from mapper.ukf_state import IW, IX, IY, IYAW
 
 if TYPE_CHECKING:
@@ -165,11 +165,11 @@ class ConeMapUpdate:
         Sa = S[np.ix_(rows, rows)]
         Ma = M[:, rows]
         try:
-            cho = scipy.linalg.cho_factor(Sa, lower=True, check_finite=False)
+            cho = cholesky_lower(Sa)
         except (np.linalg.LinAlgError, ValueError):
             ukf.count("cones_batch", "rejected_singular")
             return 0
-        K = scipy.linalg.cho_solve(cho, Ma.T, check_finite=False).T
+        K = cho_solve_lower(cho, Ma.T).T
         if mask is not None:
             drop = np.ones(ukf.n, bool)
             drop[list(mask)] = False

@@ -40,7 +40,6 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
 from common.car import CarConfig
@@ -57,6 +56,7 @@ from mapper import ukf_gnss, ukf_prediction
 from mapper.config import UkfConfig
 from mapper.imu_calibration import StaticCalibration
 from mapper.motion import rear_slip_velocity
+from mapper.spd_solve import cho_solve_lower, cholesky_lower, solve_spd
 from mapper.ukf_cones import ConeMapUpdate
 from mapper.ukf_state import (
     IBAX,
@@ -292,7 +292,7 @@ class UkfLocaliser:
     def _sigma_points(self) -> FloatArray:
         """(2 n + 1, n) sigma points around x."""
         try:
-            s = np.linalg.cholesky(self.P)
+            s = cholesky_lower(self.P, clean=True)
         except np.linalg.LinAlgError:
             w, v = np.linalg.eigh(0.5 * (self.P + self.P.T))
             s = v * np.sqrt(np.maximum(w, 1e-12))
@@ -425,16 +425,16 @@ class UkfLocaliser:
         S = H @ PHt + R
         S = 0.5 * (S + S.T)
         try:
-            cho = scipy.linalg.cho_factor(S, lower=True, check_finite=False)
+            cho = cholesky_lower(S)
         except (np.linalg.LinAlgError, ValueError):
             self.count(sensor, "rejected_singular")
             return False
-        Sy = scipy.linalg.cho_solve(cho, y, check_finite=False)
+        Sy = cho_solve_lower(cho, y)
         d2 = float(y @ Sy)
         if not math.isfinite(d2) or d2 > gate * gate:
             self.count(sensor, "rejected")
             return False
-        K = scipy.linalg.cho_solve(cho, PHt.T, check_finite=False).T
+        K = cho_solve_lower(cho, PHt.T).T
         if mask is not None:
             keep = np.zeros(self.n, bool)
             keep[list(mask)] = True
@@ -470,18 +470,18 @@ class UkfLocaliser:
         for r in angle_rows:
             y[r] = wrap_angle(float(y[r]))
         try:
-            cho = scipy.linalg.cho_factor(S, lower=True, check_finite=False)
+            cho = cholesky_lower(S)
         except (np.linalg.LinAlgError, ValueError):
             self.count(sensor, "rejected_singular")
             return False
-        d2 = float(y @ scipy.linalg.cho_solve(cho, y, check_finite=False))
+        d2 = float(y @ cho_solve_lower(cho, y))
         if not math.isfinite(d2) or d2 > gate * gate:
             self.count(sensor, "rejected")
             return False
-        K = scipy.linalg.cho_solve(cho, Pxz.T, check_finite=False).T
+        K = cho_solve_lower(cho, Pxz.T).T
         if self.PxL is not None:
             # h statistically linearised: H = Pxz^T P^-1.
-            H = scipy.linalg.solve(self.P, Pxz, assume_a="pos", check_finite=False).T
+            H = solve_spd(self.P, Pxz).T
             self.PxL = self.PxL - K @ (H @ self.PxL)
         self.x = self.x + K @ y
         self.x[IYAW] = wrap_angle(float(self.x[IYAW]))

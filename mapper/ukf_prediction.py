@@ -11,9 +11,9 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.linalg
 
 from common.conventions import wrap_angle
+from mapper.spd_solve import solve_spd
 from mapper.ukf_state import IBAX, IBAY, IBG, IVX, IVY, IW, IX, IY, IYAW, N_STATE, wrap_yaw
 
 if TYPE_CHECKING:
@@ -100,11 +100,11 @@ def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps:
         dy = out - mean
         dy[:, IYAW] = wrap_yaw(dy[:, IYAW])
         p_yx = (dy.T * ukf.wc) @ dx
-        F = scipy.linalg.solve(ukf.P, p_yx.T, assume_a="pos", check_finite=False).T
+        F = solve_spd(ukf.P, p_yx.T).T
         ukf.PxL = F @ ukf.PxL
     mean[IYAW] = wrap_angle(float(mean[IYAW]))
     ukf.x = mean
-    cov[np.diag_indices(ukf.n)] += q
+    cov.flat[:: ukf.n + 1] += q  # the diagonal
     if cfg.use_odometry and cfg.odometry_scale_sigma > 0.0:
         # The tyre radius is known to a fraction: a systematic along-track speed error that
         # repeated odometry updates cannot average out. Its position effect is spread as an
