@@ -146,7 +146,7 @@ def planner_main(config: AppConfig, sock: socket.socket, log_level: int, nicenes
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     logging.basicConfig(level=log_level,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    set_niceness(niceness)
+    set_niceness(niceness, "planner process")
     link = Link(sock)
     try:
         server = PlannerServer(config, link, RealClock())

@@ -15,6 +15,8 @@ the control loop. Here:
   own, :mod:`orchestrator.live_planner`, started here; thread ``planner`` answers its requests
   for the newest map and sends each plan it makes on to the control process and the recording;
 - thread ``health`` sends the sensors' health at :data:`HEALTH_RATE_HZ`;
+- the recording is written by a process of its own too, :mod:`orchestrator.live_recorder`
+  (the layers hand it their messages as they would the recorder);
 - the main thread takes the control process's messages: CAN frames for the mapper, commands and
   health for the recording, :class:`~orchestrator.layer_messages.Stop`.
 
@@ -71,6 +73,7 @@ from orchestrator.layer_messages import (
 from orchestrator.layers import ExecutiveLayer, OutputLayer
 from orchestrator.live_link import Link, link_pair
 from orchestrator.live_planner import PlannerServer, planner_main, planner_niceness
+from orchestrator.live_recorder import RecorderProcess, recorder_niceness
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
 from orchestrator.priority import lock_memory, set_niceness
@@ -131,7 +134,6 @@ class Worker:
     def __init__(self, config: AppConfig, options: DriveOptions, clock: RealClock,
                  link: Link, planner_in_thread: bool = False) -> None:
         from orchestrator.managers import make_mapper, make_sensors
-        from recordings.recorder import Recorder
 
         self.config = config
         self.options = options
@@ -143,7 +145,10 @@ class Worker:
         self.hasher = HashSink()
         self.recorder: Any = None
         if options.record:
-            self.recorder = Recorder(options.out_dir / options.recording_name, config.recording)
+            self.recorder = RecorderProcess(options.out_dir / options.recording_name,
+                                            config.recording,
+                                            recorder_niceness(options.executive_niceness),
+                                            logging.getLogger().getEffectiveLevel())
         self.visualiser: Any = None
         if options.render and options.control:
             from visualiser.visualiser import Visualiser
@@ -219,6 +224,16 @@ class Worker:
                     return False
         self._report("planner: the planner process did not start")
         return False
+
+    def _recorder_started(self) -> bool:
+        """Wait until the recording is open; False (the error sent) if it could not be."""
+        if self.recorder is None:
+            return True
+        error = self.recorder.wait_started()
+        if error is not None:
+            self._report(error)
+            return False
+        return True
 
     def _report(self, text: str) -> None:
         """An error of the run: logged, sent to the control process, and the run stops."""
@@ -389,7 +404,7 @@ class Worker:
         gc.callbacks.append(self.gc_times)
         # a planner that did not start stops the run (the error is sent): the layers are shut
         # down below as after any other error, and the statistics sent
-        if self._planner_loaded():
+        if self._recorder_started() and self._planner_loaded():
             self.link.send(Loaded())
         started = False
         try:

@@ -18,18 +18,20 @@ DEFAULT_EXECUTIVE_NICENESS = -10
 busy (a loaded car computer or test machine must not starve the map and the plan)."""
 
 
-def set_niceness(niceness: int) -> bool:
+def set_niceness(niceness: int, what: str = "executive process") -> bool:
     """Give the calling process ``niceness`` (-20..19); False, with a warning, when the
-    system refuses a negative one (it needs root or CAP_SYS_NICE)."""
-    if niceness == 0:
-        return True
+    system refuses a negative one (it needs root or CAP_SYS_NICE). A process started by
+    another inherits its niceness: a niceness of 0 is set too when it is not the current
+    one. ``what`` names the process in the log."""
     try:
+        if os.getpriority(os.PRIO_PROCESS, 0) == niceness:
+            return True
         os.setpriority(os.PRIO_PROCESS, 0, niceness)
     except (OSError, ValueError) as exc:
-        log.warning("niceness %d refused (%s): the executive process shares the CPU equally "
-                    "with the computer's other work", niceness, exc)
+        log.warning("niceness %d refused (%s): the %s shares the CPU equally with the "
+                    "computer's other work", niceness, exc, what)
         return False
-    log.info("executive process at niceness %d", niceness)
+    log.info("%s at niceness %d", what, niceness)
     return True
 
 

@@ -1,0 +1,251 @@
+"""``drive``'s recording in a process of its own.
+
+In the executive process the recorder's writer thread (converting every raw unit and map
+state to protobuf, the Foxglove views, MCAP's framing) held the interpreter lock about 13 % of
+the time that the mapper and the sensors' receiver threads wait for it (a ``py-spy --gil``
+profile of ``bench load``, issue 19). Here :class:`RecorderProcess` takes the
+:class:`~recordings.recorder.Recorder`'s calls in the executive (``write``,
+``write_raw_many``, ``write_gps_fix``) as references on a list; its ``recorder-link`` thread
+sends them every :data:`SEND_PERIOD_S` as one :class:`RecordBatch` to a process that runs the
+real :class:`~recordings.recorder.Recorder`, at the recording's niceness (lower than
+planning's: control > mapping > planning > recording > rendering).
+
+Nothing is lost silently, and the executive never waits: the recorder there is ``blocking``
+(it waits for room, so the link fills when it falls behind); in the executive a message that
+would take the list past ``recording.queue_length`` is dropped and counted in
+:attr:`RecorderProcess.dropped`, logged at powers of two, as the in-process recorder drops.
+When the executive process dies, the recorder's process sees its link close and finishes the
+file (summary and footer): a killed executive leaves a complete recording.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import signal
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from common.errors import RecordingError
+from common.messages import CanFrame, GpsFix, RawBytes
+from orchestrator.layer_messages import Final, LayerError, Loaded, Stop
+from orchestrator.live_link import Link, link_pair
+from orchestrator.priority import set_niceness
+from recordings.config import RecordingConfig
+
+log = logging.getLogger(__name__)
+
+SEND_PERIOD_S = 0.05
+"""How often the messages queued in the executive go to the recorder's process (s): one
+pickled batch each time, so the file lags what was received by at most this much more."""
+RECORDER_NICENESS_STEP = 8
+"""The recorder's process runs this much nicer than the executive process (the planner's runs
+5 nicer, the visualiser's 10)."""
+START_TIMEOUT_S = 60.0
+"""Longest wait (s) for the recorder's process to open its file."""
+STOP_MARGIN_S = 5.0
+"""Waited (s) past ``recording.stop_timeout_s`` for the recorder's process at the end."""
+
+
+@dataclass(frozen=True, slots=True)
+class RecordBatch:
+    """Recorder calls in the order they were made: ``("msg", topic, message, log_time_s)``,
+    ``("raws", units)`` or ``("gps", fix)``."""
+
+    calls: tuple[tuple[Any, ...], ...]
+
+
+class RecorderProcess:
+    """A :class:`~recordings.recorder.Recorder` in a process of its own (module docstring),
+    writing ``path`` with ``config`` at ``niceness``.
+
+    Thread-safe, and never blocks the caller. Call :meth:`wait_started` before the run (it
+    reports a file that cannot be created) and :meth:`close` at the end.
+    """
+
+    def __init__(self, path: str | Path, config: RecordingConfig, niceness: int,
+                 log_level: int = logging.INFO) -> None:
+        self.path = Path(path)
+        self.config = config
+        self.dropped = 0
+        """Messages not recorded: the list full, the process gone, or dropped there."""
+        self.written = 0
+        """Messages the recorder's process wrote (known after :meth:`close`)."""
+        self.errors = 0
+        """Messages it could not convert or write (known after :meth:`close`)."""
+        self._capacity = max(1, config.queue_length)
+        self._calls: list[tuple[Any, ...]] = []
+        self._queued = 0
+        self._lock = threading.Lock()
+        self._next_drop_report = 1
+        self._closed = False
+        self._wake = threading.Event()
+        ours, theirs = link_pair()
+        self._process = mp.get_context("spawn").Process(
+            target=recorder_main, name="fsd-recorder", daemon=True,
+            args=(str(self.path), config, theirs, log_level, niceness))
+        self._process.start()
+        theirs.close()
+        self._link = Link(ours)
+        self._sender = threading.Thread(target=self._send_loop, name="recorder-link",
+                                        daemon=True)
+        self._sender.start()
+
+    # -- the executive's side: never blocks ------------------------------------------------
+
+    def write(self, topic: str, message: object, log_time_s: float) -> bool:
+        """Queue ``message`` for ``topic`` at ``log_time_s`` (``Recorder.write``)."""
+        return self._put(("msg", topic, message, log_time_s), 1)
+
+    def __call__(self, topic: str, message: object, log_time_s: float) -> bool:
+        return self.write(topic, message, log_time_s)
+
+    def write_raw_many(self, units: tuple[RawBytes | CanFrame, ...] | list[Any]) -> bool:
+        """Queue raw units, each on its source's topic at its time (``Recorder.write_raw_many``)."""
+        if not units:
+            return True
+        return self._put(("raws", tuple(units)), len(units))
+
+    def write_gps_fix(self, fix: GpsFix) -> bool:
+        """Queue a parsed GNSS fix for the Foxglove view (``Recorder.write_gps_fix``)."""
+        if not self.config.foxglove:
+            return True
+        return self._put(("gps", fix), 1)
+
+    def _put(self, call: tuple[Any, ...], count: int) -> bool:
+        with self._lock:
+            if not self._closed and self._queued + count <= self._capacity:
+                self._calls.append(call)
+                self._queued += count
+                return True
+        self._lost(count, "recorder closed" if self._closed else "queue full")
+        return False
+
+    def _lost(self, count: int, reason: str) -> None:
+        with self._lock:
+            self.dropped += count
+            dropped = self.dropped
+            report = dropped >= self._next_drop_report
+            if report:
+                self._next_drop_report *= 2
+        if report:
+            log.warning("recorder dropped %d message(s) so far (%s)", dropped, reason)
+
+    # -- the link -----------------------------------------------------------------------------
+
+    def _send_loop(self) -> None:
+        while True:
+            self._wake.wait(SEND_PERIOD_S)
+            with self._lock:
+                calls, count = self._calls, self._queued
+                self._calls, self._queued = [], 0
+                closing = self._closed
+            if calls and not self._link.send(RecordBatch(tuple(calls))):
+                self._lost(count, "the recorder's process is gone")
+            if closing:
+                return
+
+    def wait_started(self, timeout_s: float = START_TIMEOUT_S) -> str | None:
+        """Wait until the recorder's process has opened the file: None, or why it did not."""
+        end = time.monotonic() + timeout_s
+        while not self._link.closed and time.monotonic() < end:
+            for message in self._link.recv(0.05):
+                if isinstance(message, Loaded):
+                    return None
+                if isinstance(message, LayerError):
+                    return message.text
+        return "recorder: the recorder's process did not start"
+
+    def close(self) -> None:
+        """Send what is queued, let the process finish the file, take its counts. Idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+        self._wake.set()
+        self._sender.join()
+        self._link.send(Stop())
+        end = time.monotonic() + self.config.stop_timeout_s + STOP_MARGIN_S
+        stats: dict[str, Any] | None = None
+        while stats is None and not self._link.closed and time.monotonic() < end:
+            for message in self._link.recv(0.1):
+                if isinstance(message, Final):
+                    stats = message.stats
+        self._link.close()
+        self._process.join(STOP_MARGIN_S)
+        if self._process.is_alive():
+            log.error("the recorder's process did not end: killing it (%s may lack its summary)",
+                      self.path)
+            self._process.kill()
+            self._process.join(STOP_MARGIN_S)
+        if stats is None:
+            log.error("the recorder's process sent no counts: %s may be incomplete", self.path)
+            return
+        self.written = int(stats.get("written", 0))
+        self.errors = int(stats.get("errors", 0))
+        self.dropped += int(stats.get("dropped", 0))
+
+
+def _apply(recorder: Any, call: tuple[Any, ...]) -> None:
+    kind = call[0]
+    if kind == "msg":
+        recorder.write(call[1], call[2], call[3])
+    elif kind == "raws":
+        recorder.write_raw_many(call[1])
+    elif kind == "gps":
+        recorder.write_gps_fix(call[1])
+    else:
+        raise RecordingError(f"unknown recorder call {kind!r}")
+
+
+def recorder_main(path: str, config: RecordingConfig, sock: socket.socket, log_level: int,
+                  niceness: int) -> None:
+    """Entry point of the recorder's process (``multiprocessing`` spawn target): record what
+    comes over the link until :class:`Stop` or the link closes, then finish the file and send
+    :class:`Final` with the counts."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the executive decides when it ends
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    logging.basicConfig(level=log_level,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    set_niceness(niceness, "recorder process")
+    link = Link(sock)
+    from recordings.recorder import Recorder
+
+    try:
+        recorder = Recorder(path, config, blocking=True)
+    except Exception as exc:
+        log.exception("the recorder's process could not start")
+        link.send(LayerError(f"recorder start: {exc}"))
+        link.close()
+        return
+    link.send(Loaded())
+    failed = 0
+    try:
+        stopped = False
+        while not stopped and not link.closed:
+            for message in link.recv(0.5):
+                if isinstance(message, RecordBatch):
+                    for call in message.calls:
+                        try:
+                            _apply(recorder, call)
+                        except Exception:  # noqa: BLE001 (one bad call must not end the file)
+                            failed += 1
+                            log.exception("recorder call %r failed", call[0])
+                elif isinstance(message, Stop):
+                    stopped = True
+        if not stopped:
+            log.error("the executive process is gone: finishing %s", path)
+    finally:
+        recorder.close()
+        link.send(Final({"written": recorder.written, "errors": recorder.errors + failed,
+                         "dropped": recorder.dropped}))
+        link.close()
+
+
+def recorder_niceness(executive_niceness: int) -> int:
+    """The recorder's process's niceness beside the executive's (within -20..19)."""
+    return max(-20, min(19, executive_niceness + RECORDER_NICENESS_STEP))
