@@ -88,6 +88,11 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     """Run the pair under load ``--runs`` times and print each run's figures, then the count
     of clean runs (2 laps, 0 cones, no stop but the finish)."""
     del config
+    if args.keep is not None:
+        taken = [f"run_{k + 1}" for k in range(args.runs) if (args.keep / f"run_{k + 1}").exists()]
+        if taken:
+            raise SystemExit(f"bench load: --keep {args.keep} already holds {', '.join(taken)}: "
+                             f"give a new folder")
     busy = [multiprocessing.Process(target=_spin, daemon=True) for _ in range(args.busy)]
     for proc in busy:
         proc.start()
