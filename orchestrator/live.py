@@ -310,8 +310,10 @@ class LiveMain:
         for message in link.poll():  # what it sent before it went (a send error closes early)
             self._on_message(message)
         if process.is_alive():
-            log.error("the executive process did not end: terminating it")
-            process.terminate()
+            # it ignores SIGTERM (the control process decides when it ends): SIGKILL. Its
+            # recorder's process then sees its link close and finishes the file.
+            log.error("the executive process did not end: killing it")
+            process.kill()
             process.join(2.0)
         link.close()
 

@@ -133,7 +133,7 @@ class Worker:
 
     def __init__(self, config: AppConfig, options: DriveOptions, clock: RealClock,
                  link: Link, planner_in_thread: bool = False) -> None:
-        from orchestrator.managers import make_mapper, make_sensors
+        from orchestrator.managers import make_sensors
 
         self.config = config
         self.options = options
@@ -144,23 +144,8 @@ class Worker:
             config.mapper.fusion.imu_coalesce_backlog_s = DRIVE_IMU_COALESCE_BACKLOG_S
         self.hasher = HashSink()
         self.recorder: Any = None
-        if options.record:
-            self.recorder = RecorderProcess(options.out_dir / options.recording_name,
-                                            config.recording,
-                                            recorder_niceness(options.executive_niceness),
-                                            logging.getLogger().getEffectiveLevel())
         self.visualiser: Any = None
-        if options.render and options.control:
-            from visualiser.visualiser import Visualiser
-
-            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
-                                         laps=config.mission.laps)
-        from orchestrator.outputs import start_live
-
-        self.live: Any = start_live(options.live, config)
-        run = config.run
-        self.executive = ExecutiveLayer(make_mapper(config) if options.control else None,
-                                        run.stale_input_s, self.recorder, self.live)
+        self.live: Any = None
         self.planner_link: Link | None = None
         self.planner_process: Any = None
         self.planner_server: PlannerServer | None = None
@@ -169,11 +154,13 @@ class Worker:
         self.planner_stats: dict[str, Any] = {}
         self._poses: deque[PoseEstimate] = deque(maxlen=POSE_BACKLOG)
         self._plan: Plan | None = None
-        if options.control:
-            self._start_planner(planner_in_thread)
-        sinks = [self.hasher] + ([self.recorder] if self.recorder is not None else [])
-        self.output = OutputLayer(sinks, run.output_record_rate_hz, config.visualiser.fps,
-                                  self.recorder, self.visualiser, self.live)
+        try:
+            self._build_layers(planner_in_thread)
+        except BaseException:
+            # the processes started so far wait for their links: end them, or this process
+            # would wait for them at its exit
+            self._close_outputs()
+            raise
         self.times = StageTimes()
         self.stop = threading.Event()
         self.errors: list[str] = []
@@ -184,6 +171,46 @@ class Worker:
         self.gc_times: GcTimes | None = None
         self.memory_locked = False
         """Whether this process's memory is locked in RAM (drive in real-time mode)."""
+
+    def _build_layers(self, planner_in_thread: bool) -> None:
+        """The recorder's and the planner's processes, the visualiser, the live view and the
+        executive and output layers."""
+        from orchestrator.managers import make_mapper
+        from orchestrator.outputs import start_live
+
+        config, options = self.config, self.options
+        if options.record:
+            self.recorder = RecorderProcess(options.out_dir / options.recording_name,
+                                            config.recording,
+                                            recorder_niceness(options.executive_niceness),
+                                            logging.getLogger().getEffectiveLevel())
+        if options.render and options.control:
+            from visualiser.visualiser import Visualiser
+
+            self.visualiser = Visualiser(config.visualiser, options.out_dir / "frames",
+                                         laps=config.mission.laps)
+        self.live = start_live(options.live, config)
+        run = config.run
+        self.executive = ExecutiveLayer(make_mapper(config) if options.control else None,
+                                        run.stale_input_s, self.recorder, self.live)
+        if options.control:
+            self._start_planner(planner_in_thread)
+        sinks = [self.hasher] + ([self.recorder] if self.recorder is not None else [])
+        self.output = OutputLayer(sinks, run.output_record_rate_hz, config.visualiser.fps,
+                                  self.recorder, self.visualiser, self.live)
+
+    def _close_outputs(self) -> None:
+        """Close the recording, the live view, the visualiser and the planner, each guarded."""
+        for name, close in (("recorder", getattr(self.recorder, "close", None)),
+                            ("live view", getattr(self.live, "close", None)),
+                            ("visualiser", getattr(self.visualiser, "close", None)),
+                            ("planner", self._stop_planner)):
+            if close is None:
+                continue
+            try:
+                close()
+            except Exception:
+                log.exception("closing the %s failed", name)
 
     @property
     def plan(self) -> Plan | None:
@@ -436,17 +463,11 @@ class Worker:
             for thread in threads:
                 if thread.is_alive():
                     thread.join(2.0)
-            for name, close in (("sensors", self.sensors.stop),
-                                ("recorder", getattr(self.recorder, "close", None)),
-                                ("live view", getattr(self.live, "close", None)),
-                                ("visualiser", getattr(self.visualiser, "close", None)),
-                                ("planner", self._stop_planner)):
-                if close is None:
-                    continue
-                try:
-                    close()
-                except Exception:
-                    log.exception("closing the %s failed", name)
+            try:
+                self.sensors.stop()
+            except Exception:
+                log.exception("closing the sensors failed")
+            self._close_outputs()
         stats: dict[str, Any] = {
             "stages_ms": {**self.times.summary_ms(),
                           **self.planner_stats.get("stages_ms", {})},

@@ -22,6 +22,7 @@ from orchestrator.live import DriveOptions, LiveMain
 from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import Worker
 from recordings.player import Player
+from recordings.reader import RecordingReader
 from sensors.can_codec import CanCodec
 
 
@@ -163,6 +164,11 @@ def test_an_executive_process_that_cannot_start_stops_the_run(tmp_path: Path, ra
     assert "rate must be > 0" in summary["stop_reason"]
     assert not any(c.throttle > 0.0 for c in car.commands)  # the car was never driven
     assert summary["as_state"] != "DRIVING"
+    if process == "executive":
+        # the processes it had started (the recorder's, the planner's) were ended with it:
+        # the recording is finished, not left open by a process waiting for its link
+        with RecordingReader(tmp_path / "recording.mcap") as reader:
+            assert reader.indexed
 
 
 def test_a_failing_layer_thread_reports_its_error_and_closes_the_recording(
