@@ -20,7 +20,6 @@ layer is sent as :class:`~orchestrator.layer_messages.LayerError` (the run stops
 from __future__ import annotations
 
 import logging
-import signal
 import socket
 import time
 
@@ -39,7 +38,7 @@ from orchestrator.layer_messages import (
 from orchestrator.layers import DeliberativeLayer
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
-from orchestrator.priority import lock_memory, set_niceness
+from orchestrator.priority import enter_child_process, lock_memory
 
 log = logging.getLogger(__name__)
 
@@ -142,11 +141,7 @@ def planner_main(config: AppConfig, sock: socket.socket, log_level: int, nicenes
                  lock: bool) -> None:
     """Entry point of the planner process (``multiprocessing`` spawn target): at ``niceness``,
     memory locked when ``lock``."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    logging.basicConfig(level=log_level,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    set_niceness(niceness, "planner process")
+    enter_child_process("planner process", log_level, niceness)
     link = Link(sock)
     try:
         server = PlannerServer(config, link, RealClock())

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
-import signal
 import socket
 import threading
 import time
@@ -34,8 +33,9 @@ from common.errors import RecordingError
 from common.messages import CanFrame, GpsFix, RawBytes
 from orchestrator.layer_messages import Final, LayerError, Loaded, Stop
 from orchestrator.live_link import Link, link_pair
-from orchestrator.priority import set_niceness
+from orchestrator.priority import enter_child_process
 from recordings.config import RecordingConfig
+from recordings.drops import DropCount
 
 log = logging.getLogger(__name__)
 
@@ -71,8 +71,7 @@ class RecorderProcess:
                  log_level: int = logging.INFO) -> None:
         self.path = Path(path)
         self.config = config
-        self.dropped = 0
-        """Messages not recorded: the list full, the process gone, or dropped there."""
+        self._drops = DropCount()
         self.written = 0
         """Messages the recorder's process wrote (known after :meth:`close`)."""
         self.errors = 0
@@ -81,7 +80,6 @@ class RecorderProcess:
         self._calls: list[tuple[Any, ...]] = []
         self._queued = 0
         self._lock = threading.Lock()
-        self._next_drop_report = 1
         self._closed = False
         self._wake = threading.Event()
         ours, theirs = link_pair()
@@ -122,18 +120,13 @@ class RecorderProcess:
                 self._calls.append(call)
                 self._queued += count
                 return True
-        self._lost(count, "recorder closed" if self._closed else "queue full")
+        self._drops.add(count, "recorder closed" if self._closed else "queue full")
         return False
 
-    def _lost(self, count: int, reason: str) -> None:
-        with self._lock:
-            self.dropped += count
-            dropped = self.dropped
-            report = dropped >= self._next_drop_report
-            if report:
-                self._next_drop_report *= 2
-        if report:
-            log.warning("recorder dropped %d message(s) so far (%s)", dropped, reason)
+    @property
+    def dropped(self) -> int:
+        """Messages not recorded: the list full, the process gone, or dropped there."""
+        return self._drops.count
 
     # -- the link -----------------------------------------------------------------------------
 
@@ -145,7 +138,7 @@ class RecorderProcess:
                 self._calls, self._queued = [], 0
                 closing = self._closed
             if calls and not self._link.send(RecordBatch(tuple(calls))):
-                self._lost(count, "the recorder's process is gone")
+                self._drops.add(count, "the recorder's process is gone")
             if closing:
                 return
 
@@ -187,7 +180,8 @@ class RecorderProcess:
             return
         self.written = int(stats.get("written", 0))
         self.errors = int(stats.get("errors", 0))
-        self.dropped += int(stats.get("dropped", 0))
+        if int(stats.get("dropped", 0)):
+            self._drops.add(int(stats["dropped"]), "in the recorder's process")
 
 
 def _apply(recorder: Any, call: tuple[Any, ...]) -> None:
@@ -207,11 +201,7 @@ def recorder_main(path: str, config: RecordingConfig, sock: socket.socket, log_l
     """Entry point of the recorder's process (``multiprocessing`` spawn target): record what
     comes over the link until :class:`Stop` or the link closes, then finish the file and send
     :class:`Final` with the counts."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the executive decides when it ends
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    logging.basicConfig(level=log_level,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    set_niceness(niceness, "recorder process")
+    enter_child_process("recorder process", log_level, niceness)
     link = Link(sock)
     from recordings.recorder import Recorder
 

@@ -36,7 +36,6 @@ import gc
 import logging
 import multiprocessing as mp
 import resource
-import signal
 import socket
 import threading
 import time
@@ -76,7 +75,7 @@ from orchestrator.live_planner import PlannerServer, planner_main, planner_nicen
 from orchestrator.live_recorder import RecorderProcess, recorder_niceness
 from orchestrator.main_loop import StageTimes
 from orchestrator.outputs import HashSink
-from orchestrator.priority import lock_memory, set_niceness
+from orchestrator.priority import enter_child_process, lock_memory
 from recordings.topics import COMMAND, PLAN
 from sensors.config import SensorsConfig
 
@@ -517,11 +516,7 @@ class GcTimes:
 def worker_main(config: AppConfig, options: DriveOptions, clock: RealClock,
                 sock: socket.socket, log_level: int) -> None:
     """Entry point of the worker process (``multiprocessing`` spawn target)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    logging.basicConfig(level=log_level,
-                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    set_niceness(options.executive_niceness)
+    enter_child_process("executive process", log_level, options.executive_niceness)
     link = Link(sock)
     try:
         worker = Worker(config, options, clock, link)

@@ -10,6 +10,7 @@ import functools
 import logging
 import os
 import resource
+import signal
 
 log = logging.getLogger(__name__)
 
@@ -83,3 +84,15 @@ def unlock_memory() -> None:
     libc = _libc()
     if libc is not None:
         libc.munlockall()
+
+
+def enter_child_process(what: str, log_level: int, niceness: int) -> None:
+    """The start of each of ``drive``'s processes but the control process: SIGINT and SIGTERM
+    ignored (Ctrl-C reaches the whole process group; the process that started this one decides
+    when it ends), logging at ``log_level`` to stderr, ``niceness`` set (``what`` names the
+    process in the log)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    logging.basicConfig(level=log_level,
+                        format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    set_niceness(niceness, what)

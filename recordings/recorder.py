@@ -47,6 +47,7 @@ from common.track import TrackLayout
 from recordings import foxglove_views, topics
 from recordings.codec import to_proto
 from recordings.config import RecordingConfig
+from recordings.drops import DropCount
 
 log = logging.getLogger(__name__)
 
@@ -116,17 +117,14 @@ class Recorder:
         self.config = config if config is not None else RecordingConfig()
         self._wall_clock_s = wall_clock_s
         self._car = car if car is not None else CarConfig()
-        self.dropped = 0
-        """Messages not recorded because the queue was full (or the recorder closed)."""
+        self._drops = DropCount()
         self.written = 0
         """Messages written to the file (including the Foxglove views)."""
         self.errors = 0
         """Messages that could not be converted or written (each logged)."""
         self.error: BaseException | None = None
         """The first write error, if any."""
-        self._lock = threading.Lock()
         self._closed = False
-        self._next_drop_report = 1
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._stream: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 (closed in _finish)
@@ -210,17 +208,14 @@ class Recorder:
         if not self._closed and self._reserve(count):
             self._queue.put(item)
             return True
-        with self._lock:
-            self.dropped += count
-            dropped = self.dropped
-            report = dropped >= self._next_drop_report
-            if report:
-                self._next_drop_report *= 2
-        if report:
-            reason = "recorder closed" if self._closed else "queue full"
-            log.warning("recorder dropped %d message(s) so far (%s; last on %s)",
-                        dropped, reason, item.topic or "raw units")
+        reason = "recorder closed" if self._closed else "queue full"
+        self._drops.add(count, f"{reason}; last on {item.topic or 'raw units'}")
         return False
+
+    @property
+    def dropped(self) -> int:
+        """Messages not recorded because the queue was full (or the recorder closed)."""
+        return self._drops.count
 
     def _reserve(self, count: int) -> bool:
         """Room in the queue for ``count`` more messages: at once, or (``blocking``) once the
