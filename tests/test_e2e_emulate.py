@@ -21,6 +21,7 @@ except the figures printed for the report (control period p99).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -37,6 +38,7 @@ import numpy as np
 import pytest
 
 from common.messages import AsState
+from simulator.emulator import EmulatorOptions
 from support.shared_data import shared_data
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -185,6 +187,8 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     emulator.popen.send_signal(signal.SIGTERM)
     assert emulator.wait(15.0) == 0, emulator.log()
     served = json.loads(emulator_summary.read_text())
+    print(f"emulator: steps late p99 {served['step_late_p99_ms']} ms, "
+          f"{served['steps_late']} steps over 100 ms")
     assert served["stop_reason"] == "signal"
     assert served["actuator_frames_in"] > 300  # drive's commands came back over slcan
     assert served["as_status_frames_in"] > 30  # and its AS_STATUS (10 Hz), decoded by the car
@@ -194,7 +198,11 @@ def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> No
     assert served["can_bad_lines"] == 0
     # its own lateness is measured (a step's units go out after the step's time, never before)
     assert 0.0 < served["step_late_p99_ms"] <= served["step_late_max_ms"]
-    assert 0 <= served["steps_late"] < served["actuator_frames_in"]
+    # a count of its steps (how many were late depends on the machine's load: 32-953 with
+    # two busy processes beside the suite, so no bound from the run's other figures)
+    step_s = next(f.default for f in dataclasses.fields(EmulatorOptions) if f.name == "step_s")
+    steps = served["wall_time_s"] / float(step_s)  # type: ignore[arg-type]
+    assert 0 <= served["steps_late"] <= steps + 1
 
 
 FREEZE_MS = 500.0
