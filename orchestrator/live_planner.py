@@ -38,7 +38,7 @@ from orchestrator.layer_messages import (
 from orchestrator.layers import DeliberativeLayer
 from orchestrator.live_link import Link
 from orchestrator.main_loop import StageTimes
-from orchestrator.priority import enter_child_process, lock_memory
+from orchestrator.priority import enter_child_process, lock_memory, nicer_by
 
 log = logging.getLogger(__name__)
 
@@ -160,5 +160,5 @@ def planner_main(config: AppConfig, sock: socket.socket, log_level: int, nicenes
 
 def planner_niceness(executive_niceness: int) -> int:
     """The planner process's niceness beside the executive's (within -20..19)."""
-    return max(-20, min(19, executive_niceness + PLANNER_NICENESS_STEP))
+    return nicer_by(executive_niceness, PLANNER_NICENESS_STEP)
 

@@ -33,7 +33,7 @@ from common.errors import RecordingError
 from common.messages import CanFrame, GpsFix, RawBytes
 from orchestrator.layer_messages import Final, LayerError, Loaded, Stop
 from orchestrator.live_link import Link, link_pair
-from orchestrator.priority import enter_child_process
+from orchestrator.priority import enter_child_process, nicer_by
 from recordings.config import RecordingConfig
 from recordings.drops import DropCount
 
@@ -238,4 +238,4 @@ def recorder_main(path: str, config: RecordingConfig, sock: socket.socket, log_l
 
 def recorder_niceness(executive_niceness: int) -> int:
     """The recorder's process's niceness beside the executive's (within -20..19)."""
-    return max(-20, min(19, executive_niceness + RECORDER_NICENESS_STEP))
+    return nicer_by(executive_niceness, RECORDER_NICENESS_STEP)

@@ -96,3 +96,9 @@ def enter_child_process(what: str, log_level: int, niceness: int) -> None:
     logging.basicConfig(level=log_level,
                         format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     set_niceness(niceness, what)
+
+
+def nicer_by(niceness: int, step: int) -> int:
+    """``niceness`` raised by ``step``, within Linux's -20..19 (a child process's niceness
+    beside its parent's)."""
+    return max(-20, min(19, niceness + step))
