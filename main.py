@@ -4,7 +4,9 @@
 
 Subcommands are contributed by the packages: a package with a ``cli.py`` that defines
 ``register(subparsers, common)`` adds its subcommands, so ``--help`` lists only those that exist.
-Each registered subcommand sets ``func(args, config) -> int`` on its parser. Every subcommand
+Each registered subcommand sets ``func(args, config) -> int`` on its parser. A ``cli.py`` whose
+``register`` is slow (it imports modules) may name its subcommands in ``COMMANDS``; it is then
+registered only when one of them, or none known, is asked for. Every subcommand
 takes ``--config FILE`` (overrides of the defaults); a bad config stops the program before
 anything starts, with one line naming the file, the key and what was expected.
 """
@@ -57,8 +59,13 @@ def _config_command(args: argparse.Namespace, config: AppConfig) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The whole command line: common options, ``config``, and every package's subcommands."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole command line: common options, ``config``, and every package's subcommands.
+
+    With ``command`` (the first argument), a package that declares ``COMMANDS`` without it is left
+    out, so that e.g. ``sim`` does not import every benchmark; with None, or a name no package
+    declares (a typo is then told apart from the real choices), every package is registered.
+    """
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--config", metavar="FILE", default=None,
                         help="TOML file overriding the default configuration")
@@ -72,13 +79,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
-    for package in COMMAND_PACKAGES:
-        if importlib.util.find_spec(package) is None:
-            continue
-        if importlib.util.find_spec(f"{package}.cli") is None:
-            continue
-        module = importlib.import_module(f"{package}.cli")
+    modules = [importlib.import_module(f"{package}.cli") for package in COMMAND_PACKAGES
+               if importlib.util.find_spec(package) is not None
+               and importlib.util.find_spec(f"{package}.cli") is not None]
+    # Packages that do not declare their commands first: then a command they (or config) add
+    # is known, and a declaring package that does not add it can be left out.
+    declaring = [module for module in modules if hasattr(module, "COMMANDS")]
+    for module in modules if command is None else [m for m in modules if m not in declaring]:
         module.register(sub, common)
+    if command is not None:
+        known = set(sub.choices) | {"config"}
+        for module in declaring:
+            if command in module.COMMANDS or command not in known:
+                module.register(sub, common)
 
     config_parser = sub.add_parser("config", parents=[common],
                                    help="show the merged configuration")
@@ -100,11 +113,13 @@ def cli(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser()
+    defaulted = not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help"))
+    parser = build_parser(DEFAULT_COMMAND if defaulted else None if argv[0].startswith("-")
+                          else argv[0])
     choices: dict[str, argparse.ArgumentParser] = (
         parser._subparsers._group_actions[0].choices  # type: ignore[union-attr,assignment]
     )
-    if not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help")):
+    if defaulted:
         if DEFAULT_COMMAND in choices:
             argv = [DEFAULT_COMMAND, *argv]
         else:

@@ -16,6 +16,9 @@ from typing import Any
 
 from orchestrator.config import AppConfig
 
+#: What ``register`` adds: main registers this package only for these (it imports every module).
+COMMANDS = ("bench",)
+
 
 def _benchmarks() -> dict[str, Any]:
     found: dict[str, Any] = {}

@@ -15,6 +15,7 @@ with a state, mission or ASSI mode outside its enum in ``rejects["bad_status"]``
 from __future__ import annotations
 
 import collections
+import functools
 import logging
 import math
 from pathlib import Path
@@ -83,6 +84,14 @@ def _clip(message: Message, values: dict[str, float]) -> dict[str, float]:
     return out
 
 
+@functools.lru_cache(maxsize=8)
+def _load_database(path: str, mtime_ns: int) -> Database:
+    """The parsed DBC file, once per file and version: a run has several codecs (one per sender)
+    and parsing takes about 10 ms. The database is only read after loading, so it is shared."""
+    del mtime_ns  # part of the cache key: an edited file is parsed again
+    return cantools.database.load_file(path)  # type: ignore[return-value]
+
+
 class CanCodec:
     """Encode and decode the car's CAN frames.
 
@@ -95,7 +104,7 @@ class CanCodec:
     def __init__(self, dbc_path: str | Path | None = None) -> None:
         path = Path(dbc_path) if dbc_path else DEFAULT_DBC_PATH
         try:
-            self.db: Database = cantools.database.load_file(str(path))  # type: ignore[assignment]
+            self.db: Database = _load_database(str(path.resolve()), path.stat().st_mtime_ns)
         except (OSError, cantools.database.UnsupportedDatabaseFormatError) as exc:
             raise ConfigError(f"{path}: cannot load the DBC file ({exc})") from exc
         self.dbc_path = path

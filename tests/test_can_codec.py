@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import cantools
 import pytest
 
@@ -117,3 +119,21 @@ def test_missing_dbc_is_a_clear_config_error(tmp_path) -> None:
 
     with pytest.raises(ConfigError, match="nope.dbc"):
         CanCodec(tmp_path / "nope.dbc")
+
+
+def test_codecs_share_one_parse_of_a_file_until_it_is_edited(tmp_path) -> None:
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DEFAULT_DBC_PATH.read_text())
+    first, second = CanCodec(dbc), CanCodec(dbc)
+    assert first.db is second.db
+    assert first.db is not CanCodec().db  # another file, another parse
+    edited = dbc.read_text().replace("WHEEL_SPEEDS", "WHEEL_SPEED_X")
+    dbc.write_text(edited)
+    stat = dbc.stat()
+    os.utime(dbc, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
+    third = CanCodec(dbc)
+    assert third.db is not first.db
+    assert third.db.get_message_by_frame_id(WHEEL_SPEEDS_ID).name == "WHEEL_SPEED_X"
+    # each codec keeps its own alive counters although the database is shared
+    first.encode_command(ActuatorCommand(0.0, 0.1, 0.0, 0.0))
+    assert second._counters != first._counters

@@ -162,3 +162,24 @@ def test_generated_track_with_negative_seed_is_one_line(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert proc.stderr.strip().splitlines()[-1].startswith("error: track 'gen:-3'")
+
+
+def _commands(parser: argparse.ArgumentParser) -> set[str]:
+    return {path[0] for path, _ in _subparsers(parser) if len(path) == 1}
+
+
+def test_a_known_command_leaves_out_the_packages_that_declare_other_commands() -> None:
+    everything = _commands(main.build_parser())
+    assert {"sim", "bench", "drive", "campaign", "config"} <= everything
+    assert _commands(main.build_parser("sim")) == everything - {"bench"}
+    assert _commands(main.build_parser("bench")) == everything
+    # a typo is told against every real choice, bench's included
+    assert _commands(main.build_parser("bnch")) == everything
+
+
+def test_sim_does_not_import_the_benchmarks() -> None:
+    code = ("import sys, main; main.build_parser('sim'); "
+            "print(sorted(m for m in sys.modules if m.startswith('bench.bench_')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
