@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
 import time
 import uuid
@@ -18,7 +19,7 @@ from common.clock import RealClock
 from common.messages import ActuatorCommand, AsState, CanFrame, RemoteStop, WheelSpeeds
 from orchestrator.config import AppConfig
 from orchestrator.layer_messages import ControlTick, Final, LayerError, Start, Stop
-from orchestrator.live import DriveOptions, LiveMain
+from orchestrator.live import CONTROL_SWITCH_INTERVAL_S, DriveOptions, LiveMain
 from orchestrator.live_link import Link, link_pair
 from orchestrator.live_worker import Worker
 from recordings.player import Player
@@ -223,3 +224,17 @@ def test_realtime_priority_is_best_effort_and_restored(tmp_path: Path) -> None:
     assert summary["stop_reason"] == "time limit"
     assert summary["timing"]["realtime_priority"] in (5, None)  # None: not permitted here
     assert os.sched_getscheduler(0) == before
+
+
+def test_the_control_loop_runs_with_a_short_switch_interval_and_restores_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    seen: list[float] = []
+    monkeypatch.setattr(LiveMain, "_loop", lambda self: seen.append(sys.getswitchinterval())
+                        or "time limit")
+    before = sys.getswitchinterval()
+    summary = LiveMain(live_config(), DriveOptions(tmp_path, seconds=0.5, record=False,
+                                                   realtime_priority=0)).run()
+    assert summary["stop_reason"] == "time limit"
+    assert seen == [pytest.approx(CONTROL_SWITCH_INTERVAL_S)]
+    assert CONTROL_SWITCH_INTERVAL_S < before
+    assert sys.getswitchinterval() == before
