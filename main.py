@@ -63,8 +63,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The whole command line: common options, ``config``, and every package's subcommands.
 
     With ``command`` (the first argument), a package that declares ``COMMANDS`` without it is left
-    out, so that e.g. ``sim`` does not import every benchmark; with None, or a name no package
-    declares (a typo is then told apart from the real choices), every package is registered.
+    out, so that e.g. ``sim`` does not import every benchmark. With None, or a name that no package
+    adds (a typo, whose error then lists every real choice), every package is registered.
     """
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--config", metavar="FILE", default=None,
