@@ -90,7 +90,7 @@ CONTROL_SWITCH_INTERVAL_S = 0.0001
 """The control process's interpreter switch interval (s; Python's default is 0.005). The control
 loop's wake-up waits for the interpreter lock when a CAN thread holds it, up to this long before
 the holder is asked to let go: at 0.5 ms, bench load's wake-up lateness p99 was 0.55-1.48 ms in 5
-runs; at 0.1 ms, 0.08-0.68 ms in 6 of 7 (issue 19)."""
+runs; at 0.1 ms, 0.08-0.42 ms in 19 of 20 and 2.0 ms once (issue 19)."""
 HEALTH_RECORD_EVERY = 10
 """Every this many control ticks the health the controller saw is recorded."""
 
