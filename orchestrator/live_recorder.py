@@ -1,10 +1,10 @@
-"""``drive``'s recording in a process of its own.
+"""The recording in a process of its own: ``drive``'s, and ``sim --realtime``'s.
 
 In the executive process the recorder's writer thread (converting every raw unit and map
 state to protobuf, the Foxglove views, MCAP's framing) held the interpreter lock about 13 % of
 the time that the mapper and the sensors' receiver threads wait for it (a ``py-spy --gil``
 profile of ``bench load``, issue 19). Here :class:`RecorderProcess` takes the
-:class:`~recordings.recorder.Recorder`'s calls in the executive (``write``,
+:class:`~recordings.recorder.Recorder`'s calls in the executive (``write``, ``write_proto``,
 ``write_raw_many``, ``write_gps_fix``) as references on a list; its ``recorder-link`` thread
 sends them every :data:`SEND_PERIOD_S` as one :class:`RecordBatch` to a process that runs the
 real :class:`~recordings.recorder.Recorder`, at the recording's niceness (lower than
@@ -15,7 +15,8 @@ Nothing is lost silently, and the executive never waits: the recorder there is `
 would take the list past ``recording.queue_length`` is dropped and counted in
 :attr:`RecorderProcess.dropped`, logged at powers of two, as the in-process recorder drops.
 When the executive process dies, the recorder's process sees its link close and finishes the
-file (summary and footer): a killed executive leaves a complete recording.
+file (summary and footer): a killed executive (or a killed ``sim --realtime``) leaves a
+complete recording, less at most :data:`SEND_PERIOD_S` of what it had not yet sent.
 """
 
 from __future__ import annotations
@@ -25,10 +26,14 @@ import multiprocessing as mp
 import socket
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
+from google.protobuf import descriptor_pool, message_factory
+
+from common.car import CarConfig
 from common.errors import RecordingError
 from common.messages import CanFrame, GpsFix, RawBytes
 from orchestrator.layer_messages import Final, LayerError, Loaded, Stop
@@ -63,12 +68,19 @@ class RecorderProcess:
     """A :class:`~recordings.recorder.Recorder` in a process of its own (module docstring),
     writing ``path`` with ``config`` at ``niceness``.
 
+    ``car`` and ``metadata`` go to the recording as the in-process recorder writes them.
+    ``start_method`` is ``multiprocessing``'s: ``"spawn"`` (``drive``: a fresh interpreter,
+    which imports what it needs) or ``"fork"`` (``sim --realtime``: ready at once, because the
+    simulation's clock starts when it is; call it before the caller starts any thread).
+
     Thread-safe, and never blocks the caller. Call :meth:`wait_started` before the run (it
     reports a file that cannot be created) and :meth:`close` at the end.
     """
 
     def __init__(self, path: str | Path, config: RecordingConfig, niceness: int,
-                 log_level: int = logging.INFO) -> None:
+                 log_level: int = logging.INFO, car: CarConfig | None = None,
+                 metadata: Mapping[str, str] | None = None,
+                 start_method: Literal["spawn", "fork"] = "spawn") -> None:
         self.path = Path(path)
         self.config = config
         self._drops = DropCount()
@@ -83,9 +95,14 @@ class RecorderProcess:
         self._closed = False
         self._wake = threading.Event()
         ours, theirs = link_pair()
-        self._process = mp.get_context("spawn").Process(
+        # A forked child holds a copy of our end too: it closes it, or it would never see the
+        # link close when this process dies.
+        forked = start_method == "fork"
+        context = mp.get_context("fork") if forked else mp.get_context("spawn")
+        self._process = context.Process(
             target=recorder_main, name="fsd-recorder", daemon=True,
-            args=(str(self.path), config, theirs, log_level, niceness))
+            args=(str(self.path), config, theirs, log_level, niceness, car,
+                  dict(metadata) if metadata is not None else None, ours if forked else None))
         self._process.start()
         theirs.close()
         self._link = Link(ours)
@@ -101,6 +118,12 @@ class RecorderProcess:
 
     def __call__(self, topic: str, message: object, log_time_s: float) -> bool:
         return self.write(topic, message, log_time_s)
+
+    def write_proto(self, topic: str, proto: Any, log_time_s: float) -> bool:
+        """Queue a protobuf message as it is (``Recorder.write_proto``). It travels as its type's
+        full name and its bytes: generated classes do not pickle."""
+        return self._put(("proto", topic, proto.DESCRIPTOR.full_name, proto.SerializeToString(),
+                          log_time_s), 1)
 
     def write_raw_many(self, units: tuple[RawBytes | CanFrame, ...] | list[Any]) -> bool:
         """Queue raw units, each on its source's topic at its time (``Recorder.write_raw_many``)."""
@@ -137,8 +160,13 @@ class RecorderProcess:
                 calls, count = self._calls, self._queued
                 self._calls, self._queued = [], 0
                 closing = self._closed
-            if calls and not self._link.send(RecordBatch(tuple(calls))):
-                self._drops.add(count, "the recorder's process is gone")
+            try:
+                sent = not calls or self._link.send(RecordBatch(tuple(calls)))
+                why = "the recorder's process is gone"
+            except Exception as exc:  # noqa: BLE001 (a message that cannot be sent ends nothing)
+                sent, why = False, f"a message could not be sent ({exc})"
+            if not sent:
+                self._drops.add(count, why)
             if closing:
                 return
 
@@ -188,6 +216,10 @@ def _apply(recorder: Any, call: tuple[Any, ...]) -> None:
     kind = call[0]
     if kind == "msg":
         recorder.write(call[1], call[2], call[3])
+    elif kind == "proto":
+        descriptor = descriptor_pool.Default().FindMessageTypeByName(call[2])
+        recorder.write_proto(call[1], message_factory.GetMessageClass(descriptor)
+                             .FromString(call[3]), call[4])
     elif kind == "raws":
         recorder.write_raw_many(call[1])
     elif kind == "gps":
@@ -197,16 +229,21 @@ def _apply(recorder: Any, call: tuple[Any, ...]) -> None:
 
 
 def recorder_main(path: str, config: RecordingConfig, sock: socket.socket, log_level: int,
-                  niceness: int) -> None:
-    """Entry point of the recorder's process (``multiprocessing`` spawn target): record what
-    comes over the link until :class:`Stop` or the link closes, then finish the file and send
-    :class:`Final` with the counts."""
+                  niceness: int, car: CarConfig | None = None,
+                  metadata: dict[str, str] | None = None,
+                  parent_end: socket.socket | None = None) -> None:
+    """Entry point of the recorder's process (``multiprocessing`` target): record what comes
+    over the link until :class:`Stop` or the link closes, then finish the file and send
+    :class:`Final` with the counts. ``parent_end``: the other end of the link, inherited by a
+    forked child, closed here first."""
+    if parent_end is not None:
+        parent_end.close()
     enter_child_process("recorder process", log_level, niceness)
     link = Link(sock)
     from recordings.recorder import Recorder
 
     try:
-        recorder = Recorder(path, config, blocking=True)
+        recorder = Recorder(path, config, car, metadata=metadata, blocking=True)
     except Exception as exc:
         log.exception("the recorder's process could not start")
         link.send(LayerError(f"recorder start: {exc}"))
@@ -228,7 +265,7 @@ def recorder_main(path: str, config: RecordingConfig, sock: socket.socket, log_l
                 elif isinstance(message, Stop):
                     stopped = True
         if not stopped:
-            log.error("the executive process is gone: finishing %s", path)
+            log.error("the process that fed the recorder is gone: finishing %s", path)
     finally:
         recorder.close()
         link.send(Final({"written": recorder.written, "errors": recorder.errors + failed,

@@ -24,6 +24,7 @@ import datetime as dt
 import json
 import logging
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,9 +33,11 @@ from typing import Any
 from common.clock import RealClock, SimClock
 from common.config import config_to_toml
 from common.conventions import wrap_angle
+from common.errors import RecordingError
 from common.messages import ActuatorCommand, AsState, Mission
 from mapper.evaluation import evaluate_map
 from orchestrator.config import AppConfig, apply_mission
+from orchestrator.live_recorder import RecorderProcess, recorder_niceness
 from orchestrator.main_loop import Main
 from orchestrator.managers import make_controller, make_mapper, make_planner, make_sensors
 from orchestrator.mission_result import mission_result, mission_timer
@@ -120,11 +123,6 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
                             speed_mps=config.sim.driver_speed_mps,
                             steer_noise_rad=config.sim.driver_steer_noise_rad)
 
-    live = start_live(options.live, config)  # first: a port in use stops nothing half-made
-    if live is not None:
-        live.write(TRUTH_TRACK, track, 0.0)
-    clock = SimClock()
-    sensors = make_sensors(config, clock)
     hasher = HashSink()
     recorder = None
     outputs: list[Any] = [hasher]
@@ -132,10 +130,22 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         # The run's configuration goes with the recording, so that a replay runs the same stack.
         metadata = {"track": track.name, "seed": str(config.sim.seed),
                     "config_toml": config_to_toml(config)}
-        recorder = Recorder(out_dir / "recording.mcap", config.recording, config.car,
-                            metadata=metadata, blocking=True)
+        recorder = _make_recorder(out_dir / "recording.mcap", config, metadata,
+                                  options.realtime)
         outputs.append(recorder)
+    try:
+        live = start_live(options.live, config)
+    except Exception:
+        if recorder is not None:  # a port in use leaves nothing half-made
+            recorder.close()
+            (out_dir / "recording.mcap").unlink(missing_ok=True)
+        raise
+    if recorder is not None:
         recorder.write(TRUTH_TRACK, track, 0.0)
+    if live is not None:
+        live.write(TRUTH_TRACK, track, 0.0)
+    clock = SimClock()
+    sensors = make_sensors(config, clock)
     visualiser = None
     if config.run.render:
         from visualiser.visualiser import Visualiser
@@ -176,6 +186,9 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
     if live is not None:
         summary["live"] = live.stats()
+    if recorder is not None:
+        summary["recording"] = {"written": recorder.written, "dropped": recorder.dropped,
+                                "errors": recorder.errors}
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if options.artifacts:
         runner.log.save(out_dir / "run_log.npz")
@@ -184,6 +197,24 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
+
+
+def _make_recorder(path: Path, config: AppConfig, metadata: dict[str, str],
+                   realtime: bool) -> Any:
+    """The run's recorder of ``path``. In real time it is a process of its own, as on the car
+    (:mod:`orchestrator.live_recorder`), forked before any thread starts: a killed run still
+    leaves a complete recording. Otherwise it is in this process and the run waits for it, so
+    that nothing is dropped."""
+    if not realtime:
+        return Recorder(path, config.recording, config.car, metadata=metadata, blocking=True)
+    recorder = RecorderProcess(path, config.recording, recorder_niceness(os.nice(0)),
+                               log_level=logging.getLogger().getEffectiveLevel(),
+                               car=config.car, metadata=metadata, start_method="fork")
+    error = recorder.wait_started()
+    if error is not None:
+        recorder.close()
+        raise RecordingError(error)
+    return recorder
 
 
 @dataclass

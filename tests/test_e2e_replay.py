@@ -69,6 +69,9 @@ def test_sim_run_reaches_autonomous_phase(sim_run: tuple[Path, dict[str, Any]]) 
     info = json_out(proc)
     assert not info["recovered"]
     assert "config_toml" in info["metadata"]["fsd"]
+    counts = summary["recording"]  # the run waits for its recorder: nothing dropped
+    assert counts["dropped"] == 0 and counts["errors"] == 0
+    assert counts["written"] == info["message_count"]
     # The stack planned (after loop closure or the RES go), so the hash covers driving too.
     assert info["topics"]["/plan"]["count"] > 10
     assert info["topics"]["/command"]["count"] == pytest.approx(SIM_TIME_S * 100, abs=2)

@@ -1,6 +1,6 @@
-"""drive's recorder in a process of its own: everything written arrives, in order; a full list
-drops and counts; a file that cannot be made is reported; a killed executive leaves a
-complete file."""
+"""The recorder in a process of its own (drive's, spawned; sim --realtime's, forked): everything
+written arrives, in order; a full list drops and counts; a file that cannot be made is
+reported; a killed executive leaves a complete file."""
 
 from __future__ import annotations
 
@@ -12,8 +12,13 @@ import textwrap
 import time
 from pathlib import Path
 
+import pytest
+from mcap.reader import make_reader
+
+from common.car import CarConfig
 from common.messages import CanFrame, GpsFix, RawBytes
 from orchestrator.live_recorder import RecorderProcess, recorder_niceness
+from recordings import fsd_pb2
 from recordings.config import RecordingConfig
 from recordings.player import Player
 from recordings.reader import RecordingReader
@@ -58,6 +63,26 @@ def test_what_the_layers_write_is_recorded_in_order(tmp_path: Path) -> None:
     assert recorder.dropped == 1
 
 
+def test_a_forked_recorder_writes_protos_the_car_and_the_metadata(tmp_path: Path) -> None:
+    path = tmp_path / "forked.mcap"
+    recorder = RecorderProcess(path, RecordingConfig(), _niceness(), car=CarConfig(),
+                               metadata={"track": "t", "seed": "3"}, start_method="fork")
+    assert recorder.wait_started() is None
+    errors = [fsd_pb2.PoseError(timestamp_s=0.1 * i, position_m=0.01 * i) for i in range(5)]
+    for error in errors:  # generated protobuf classes do not pickle: they go as bytes
+        assert recorder.write_proto("/eval/pose_error", error, error.timestamp_s)
+    assert recorder.write_raw_many(_units(10))
+    recorder.close()
+    assert recorder.dropped == 0 and recorder.errors == 0
+    with RecordingReader(path) as reader:
+        assert reader.metadata["fsd"] == {"track": "t", "seed": "3"}
+    with path.open("rb") as fh:
+        got = [fsd_pb2.PoseError.FromString(message.data) for _, _, message
+               in make_reader(fh).iter_messages(topics=["/eval/pose_error"])]
+    assert got == errors
+    assert [m for _, _, m in Player(path)] == _units(10)
+
+
 def test_more_than_the_queue_holds_is_dropped_and_counted(tmp_path: Path) -> None:
     recorder = RecorderProcess(tmp_path / "small.mcap", RecordingConfig(queue_length=8),
                                _niceness())
@@ -89,7 +114,8 @@ KILLED_EXECUTIVE = textwrap.dedent(
     from orchestrator.live_recorder import RecorderProcess
     from recordings.config import RecordingConfig
 
-    recorder = RecorderProcess(sys.argv[1], RecordingConfig(), os.getpriority(os.PRIO_PROCESS, 0))
+    recorder = RecorderProcess(sys.argv[1], RecordingConfig(), os.getpriority(os.PRIO_PROCESS, 0),
+                               start_method=sys.argv[2])
     assert recorder.wait_started() is None
     recorder.write_raw_many([RawBytes(i * 0.01, "gps", b"$GP%05d\\r\\n" % i) for i in range(200)])
     time.sleep(0.5)  # the link sends every 0.05 s
@@ -99,10 +125,14 @@ KILLED_EXECUTIVE = textwrap.dedent(
 )
 
 
-def test_a_killed_executive_leaves_a_complete_recording(tmp_path: Path) -> None:
+@pytest.mark.parametrize("start_method", ["spawn", "fork"])
+def test_a_killed_executive_leaves_a_complete_recording(tmp_path: Path,
+                                                        start_method: str) -> None:
+    """A forked recorder inherits the executive's end of the link and must close it, or it
+    would never see the link close."""
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=str(PROJECT))
-    proc = subprocess.Popen([sys.executable, "-c", KILLED_EXECUTIVE, str(path)],
+    proc = subprocess.Popen([sys.executable, "-c", KILLED_EXECUTIVE, str(path), start_method],
                             stdout=subprocess.PIPE, cwd=PROJECT, env=env, text=True)
     try:
         assert proc.stdout is not None
