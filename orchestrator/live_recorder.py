@@ -95,12 +95,12 @@ class RecorderProcess:
         self._closed = False
         self._wake = threading.Event()
         ours, theirs = link_pair()
-        # A forked child holds a copy of our end too: it closes it, or it would never see the
-        # link close when this process dies.
         forked = start_method == "fork"
         if forked and threading.active_count() > 1:
             log.warning("the recorder's process is forked beside %d other thread(s): a lock one "
                         "of them holds stays held in it", threading.active_count() - 1)
+        # A forked child holds a copy of our end too: it closes it, or it would never see the
+        # link close when this process dies.
         context = mp.get_context("fork") if forked else mp.get_context("spawn")
         self._process = context.Process(
             target=recorder_main, name="fsd-recorder", daemon=True,

@@ -140,3 +140,24 @@ def test_sim_live_serves_the_scene(tmp_path: Path) -> None:
     assert truth, "no truth_track entity received"
     truth_sent = np.array([[c.pose.position.x, c.pose.position.y] for c in truth[0].cylinders])
     np.testing.assert_allclose(truth_sent, truth_xy, atol=1e-9)
+
+
+def test_a_live_port_in_use_stops_the_run_before_anything_is_made(tmp_path: Path) -> None:
+    """``--realtime`` forks its recorder's process before the live view starts; a port in use
+    still ends the run with one line, no recording and no process left behind."""
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        proc = subprocess.Popen(
+            [sys.executable, "main.py", "sim", "--realtime", "--live", f"127.0.0.1:{port}",
+             "--no-render", "--out", str(tmp_path / "run")],
+            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            start_new_session=True)
+        _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 2, stderr
+    assert f"cannot serve the live view on 127.0.0.1:{port}" in stderr
+    assert "Traceback" not in stderr
+    assert not (tmp_path / "run" / "recording.mcap").exists()
+    with pytest.raises(ProcessLookupError):  # the recorder's process ended with the run
+        os.killpg(proc.pid, 0)
