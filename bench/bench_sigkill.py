@@ -1,10 +1,10 @@
 """What a SIGKILL of ``sim --realtime`` keeps, against the import floor (issue 19).
 
-Each of ``--runs`` runs launches ``python main.py sim --realtime --laps 2 --no-render`` in a
-temporary folder, kills it with SIGKILL ``--after`` seconds (default 8) after the launch, waits
-for its recorder's process to finish the file, and reads the recording's ``duration_s`` as
-``info`` does. What the file lacks of the ``--after`` seconds is the run's start-up before its
-first tick (plus at most the recorder link's 0.05 s).
+Each of ``--runs`` runs launches ``python main.py sim --realtime --laps 2 --no-render`` (with the
+bench's ``--config``) in a temporary folder, kills it with SIGKILL ``--after`` seconds (default
+8) after the launch, waits for its recorder's process to finish the file, and reads the
+recording's ``duration_s`` as ``info`` does. What the file lacks of the ``--after`` seconds is
+the run's start-up before its first tick (plus at most the recorder link's 0.05 s).
 
 The reference, measured in the same run: the **import floor**, the wall time of a bare
 interpreter importing the third-party modules that ``sim`` imports before its first tick (listed
@@ -104,15 +104,15 @@ def _wait_group_gone(pgid: int, timeout_s: float) -> bool:
     return False
 
 
-def kill_after(after_s: float, out_dir: Path) -> float:
-    """Launch ``sim --realtime``, SIGKILL it ``after_s`` after the launch, let its recorder's
-    process finish the file; the recording's ``duration_s``."""
+def kill_after(after_s: float, out_dir: Path, config_file: str | None = None) -> float:
+    """Launch ``sim --realtime`` (with ``config_file``), SIGKILL it ``after_s`` after the
+    launch, let its recorder's process finish the file; the recording's ``duration_s``."""
     from recordings.info import info
 
     t0 = time.monotonic()
     proc = subprocess.Popen(
         [sys.executable, "main.py", "sim", "--realtime", "--laps", "2", "--no-render",
-         "--out", str(out_dir)],
+         "--out", str(out_dir), *(["--config", config_file] if config_file else [])],
         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     time.sleep(max(0.0, t0 + after_s - time.monotonic()))
     proc.send_signal(signal.SIGKILL)
@@ -132,7 +132,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     durations: list[float] = []
     with tempfile.TemporaryDirectory(prefix="bench_sigkill_") as tmp:
         for k in range(1, args.runs + 1):
-            duration_s = kill_after(args.after, Path(tmp) / f"run_{k}")
+            duration_s = kill_after(args.after, Path(tmp) / f"run_{k}", args.config)
             durations.append(duration_s)
             print(f"run {k}: {duration_s:.2f} s recorded, start-up {args.after - duration_s:.2f} s",
                   flush=True)
