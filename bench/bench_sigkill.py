@@ -93,7 +93,9 @@ def bytecode_cached() -> bool:
     return cached.exists() and cached.stat().st_mtime >= source.stat().st_mtime
 
 
-def _wait_group_gone(pgid: int, timeout_s: float) -> bool:
+def wait_group_gone(pgid: int, timeout_s: float) -> bool:
+    """Whether process group ``pgid`` (a killed run and its recorder's process) ended within
+    ``timeout_s``."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         try:
@@ -117,7 +119,7 @@ def kill_after(after_s: float, out_dir: Path, config_file: str | None = None) ->
     time.sleep(max(0.0, t0 + after_s - time.monotonic()))
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    if not _wait_group_gone(proc.pid, GROUP_END_TIMEOUT_S):
+    if not wait_group_gone(proc.pid, GROUP_END_TIMEOUT_S):
         os.killpg(proc.pid, signal.SIGKILL)
         raise RuntimeError("the recorder's process did not end after its run was killed")
     return float(info(out_dir / "recording.mcap")["duration_s"])

@@ -138,7 +138,7 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     except Exception:
         if recorder is not None:  # a port in use leaves nothing half-made
             recorder.close()
-            (out_dir / "recording.mcap").unlink(missing_ok=True)
+            recorder.path.unlink(missing_ok=True)
         raise
     if recorder is not None:
         recorder.write(TRUTH_TRACK, track, 0.0)

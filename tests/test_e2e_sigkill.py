@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bench.bench_sigkill import wait_group_gone
+
 ROOT = Path(__file__).resolve().parents[1]
 KILL_AFTER_S = 8.0
 STARTUP_ALLOWANCE_S = 1.5
@@ -67,14 +69,7 @@ def killed_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
             proc.wait(10.0)
     assert proc.returncode == -signal.SIGKILL
     # the run's recorder is a process of its own (same session): it finishes the file and ends
-    end = time.monotonic() + 60.0
-    while time.monotonic() < end:
-        try:
-            os.killpg(proc.pid, 0)
-        except ProcessLookupError:
-            break
-        time.sleep(0.1)
-    else:
+    if not wait_group_gone(proc.pid, 60.0):
         os.killpg(proc.pid, signal.SIGKILL)
         raise AssertionError("the recorder's process did not end after its run was killed")
     return recording
