@@ -1,5 +1,5 @@
 """Test-wide settings: single-threaded BLAS (as main.py sets), headless SDL and matplotlib;
-the ``shared_data`` marker."""
+the ``shared_data`` and ``slow`` markers, and the files with slow tests handed out first."""
 
 from __future__ import annotations
 
@@ -21,6 +21,24 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers", "shared_data(*paths): the test reads these paths under ../shared/data; "
         "missing, it fails in CI and is skipped elsewhere (tests/support/shared_data.py)")
+    config.addinivalue_line(
+        "markers", "slow: about 5 s or more on one core (a closed-loop drive, a Ray start, a "
+        "Monte Carlo band); pytest -m 'not slow' leaves them out")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Files with the most slow tests first, then the files with the most tests, each file's
+    tests in their own order. The workers (pytest-xdist, a file to a worker, told not to reorder)
+    take files in this order, so no long file is left to run alone at the end."""
+    slow: dict[str, int] = {}
+    count: dict[str, int] = {}
+    for item in items:
+        path = str(item.path)
+        count[path] = count.get(path, 0) + 1
+        slow[path] = slow.get(path, 0) + (item.get_closest_marker("slow") is not None)
+    files = sorted(count, key=lambda path: (-slow[path], -count[path]))
+    rank = {path: index for index, path in enumerate(files)}
+    items.sort(key=lambda item: rank[str(item.path)])  # stable: a file keeps its order
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:

@@ -59,6 +59,7 @@ def test_the_simulated_car_sends_mission_select(setting: str, expected: Mission 
         assert {m.raw_value for m in sent} == {12}
 
 
+@pytest.mark.slow
 def test_a_sim_run_steps_the_as_machine_off_ready_driving_finished(tmp_path: Path) -> None:
     summary = autocross(tmp_path)
     assert summary["finished"], summary["stop_reason"]

@@ -153,6 +153,7 @@ def read_drive_recording(path: Path) -> tuple[np.ndarray, list[int], list[Any]]:
     return np.asarray(times), states, health
 
 
+@pytest.mark.slow
 def test_drive_stops_cleanly_on_sigterm(tmp_path: Path, procs: list[Proc]) -> None:
     emulator, car, emulator_summary = start_emulator(tmp_path, procs, seconds=40.0)
     check_car_config(car)
@@ -250,6 +251,7 @@ def _safe_stop_after_a_freeze(emulator: Proc, drive: Proc, emulator_summary: Pat
     return f"machine froze {froze_ms:.0f} ms; drive stopped safely: {stop}"
 
 
+@pytest.mark.slow
 def test_emulated_run_and_kill(tmp_path: Path, procs: list[Proc]) -> None:
     emulator, drive, emulator_summary, handover_s, drove = _session(tmp_path / "run1", procs)
     if not drove:

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -20,6 +21,7 @@ def main_py(*args: str, timeout_s: float = 180.0) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=timeout_s, check=False)
 
 
+@pytest.mark.slow
 def test_sim_render_and_render_command(tmp_path: Path) -> None:
     config = tmp_path / "short.toml"
     config.write_text("[run]\nmax_sim_time_s = 12.0\n[visualiser]\nwidth_px = 480\n"

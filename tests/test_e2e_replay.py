@@ -60,6 +60,7 @@ def sim_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, A
     return out / "run" / "recording.mcap", on_disk
 
 
+@pytest.mark.slow
 def test_sim_run_reaches_autonomous_phase(sim_run: tuple[Path, dict[str, Any]]) -> None:
     recording, summary = sim_run
     assert len(summary["outputs_sha256"]) == 64
@@ -78,6 +79,7 @@ def test_sim_run_reaches_autonomous_phase(sim_run: tuple[Path, dict[str, Any]]) 
 
 
 @pytest.mark.parametrize("pace", [["--max"], ["--rate", "4"]], ids=["max", "rate4"])
+@pytest.mark.slow
 def test_replay_reproduces_sim_outputs(sim_run: tuple[Path, dict[str, Any]],
                                        pace: list[str], tmp_path: Path) -> None:
     recording, summary = sim_run

@@ -75,6 +75,7 @@ def killed_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return recording
 
 
+@pytest.mark.slow
 def test_info_reads_killed_recording(killed_recording: Path) -> None:
     proc = main_py("info", str(killed_recording), "--json")
     no_traceback(proc)

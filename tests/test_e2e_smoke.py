@@ -65,6 +65,7 @@ def test_bad_arguments_give_one_clear_line(tmp_path: Path) -> None:
     assert "Traceback" not in proc.stderr and "missing.mcap" in proc.stderr
 
 
+@pytest.mark.slow
 def test_sim_estop_while_driving(tmp_path: Path) -> None:
     """On the small oval the exploration lap ends ~16 s and the RES go comes ~19 s; an e-stop
     at 24 s hits the car while the stack drives it. Sensor faults earlier in the run (CAN

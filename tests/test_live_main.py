@@ -95,6 +95,7 @@ def kill_worker_when_running(main: LiveMain, sig: int, after_s: float) -> thread
     return thread
 
 
+@pytest.mark.slow
 def test_time_limit_records_and_stops_with_full_brake(tmp_path: Path) -> None:
     config = live_config()
     car = Car(config.sensors.can.channel)

@@ -65,6 +65,7 @@ def test_facade_types_for_both_backends(backend: str) -> None:
     assert stats.get("camera", {}).get("late", 0) <= 1
 
 
+@pytest.mark.slow
 def test_smoother_lap_closes_freezes_and_localises_on_the_map() -> None:
     """One lap of the default track with the smoother backend: the loop closes, the map
     freezes, the GNSS frame's heading is estimated from the course. The smoother has no

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 from scipy.stats import chi2
 
 from common.messages import ConeMap
@@ -55,6 +56,7 @@ def _pose_nees(seed: int, joint: bool) -> np.ndarray:
     return np.array(out)
 
 
+@pytest.mark.slow
 def test_map_errors_as_consider_states_keep_the_pose_nees_in_band() -> None:
     """Pooled over eight drives, the pose NEES (3 dof) with the joint map covariance lies in the
     two-sided 95 % band for >= 90 % of the steps; with the map's cones taken as independent the

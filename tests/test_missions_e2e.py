@@ -20,6 +20,7 @@ def _run(mission: str, tmp_path, artifacts: bool = True) -> dict:  # type: ignor
 
 
 @pytest.mark.shared_data("tracks/eufs/acceleration.csv")
+@pytest.mark.slow
 def test_acceleration_from_standstill_down_the_straight_and_stopped_in_the_run_off(
         tmp_path) -> None:
     summary = _run("acceleration", tmp_path, artifacts=False)  # as a campaign runs it
@@ -39,6 +40,7 @@ def test_acceleration_from_standstill_down_the_straight_and_stopped_in_the_run_o
 
 
 @pytest.mark.shared_data("tracks/eufs/skidpad.csv")
+@pytest.mark.slow
 def test_skidpad_two_right_two_left_timed_on_the_second_of_each(tmp_path) -> None:
     summary = _run("skidpad", tmp_path)
     assert {"summary.json", "report.html", "run_log.npz"} <= {p.name for p in tmp_path.iterdir()}

@@ -17,6 +17,7 @@ FSG = shared_path("tracks", "amz_fssim", "FSG.yaml")
 
 @pytest.mark.shared_data("tracks/amz_fssim/FSG.yaml")
 @pytest.mark.parametrize("dynamic", [False, True], ids=["kinematic", "vehicle_model"])
+@pytest.mark.slow
 def test_fsg_two_laps_no_cone_hit_near_minimum_lap_time(dynamic: bool) -> None:
     config = AppConfig()
     if not dynamic:
@@ -39,6 +40,7 @@ def kinematic_controller(config: AppConfig) -> None:
     config.controller.preview_time_s = 0.1
 
 
+@pytest.mark.slow
 def test_unknown_track_from_the_cone_map_default() -> None:
     config = AppConfig()
     kinematic_controller(config)
@@ -48,6 +50,7 @@ def test_unknown_track_from_the_cone_map_default() -> None:
     assert result.final_state == AsState.FINISHED
 
 
+@pytest.mark.slow
 def test_generated_track_fast_lap_stays_near_the_centreline() -> None:
     """gen:2 (long straights) on the vehicle model: the car must not weave at speed. With perfect
     pose the rear axle stays within 0.75 m of the centreline (half width 1.85 m, car 1.4 m wide),

@@ -125,6 +125,7 @@ def test_no_cone_ahead_gives_only_the_start() -> None:
 
 
 @pytest.mark.shared_data("tracks/eufs/small_track.csv")
+@pytest.mark.slow
 def test_autocross_on_small_track_is_driven_by_the_stack_alone(tmp_path) -> None:
     """No person drives: the stack explores its one lap from the cones it maps, no cone
     touched, and stops finished after the line."""
@@ -146,6 +147,7 @@ def test_autocross_on_small_track_is_driven_by_the_stack_alone(tmp_path) -> None
 
 
 @pytest.mark.shared_data("tracks/eufs/peanut.csv")
+@pytest.mark.slow
 def test_autocross_on_peanut_crosses_the_waist(tmp_path) -> None:
     """The peanut's waist: the car sees the cones of the start again across it before its lap
     is done (the SLAM maps them twice until the loop closes), and the right lobe with the

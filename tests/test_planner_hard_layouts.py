@@ -43,6 +43,7 @@ def test_unknown_hard_layout_names_the_known_ones() -> None:
 
 
 @pytest.mark.parametrize("name", ["hairpins", "chicanes", "straights", "narrow", "seam-bend"])
+@pytest.mark.slow
 def test_hard_layout_driven_clean(name: str) -> None:
     """Two laps with perfect pose on the vehicle model, from a recorded exploration drive: no
     cone touched, never off the track, finished."""

@@ -55,6 +55,7 @@ def inline_race() -> tuple[Any, Any, Any]:
     return track, guide, line
 
 
+@pytest.mark.slow
 def test_the_racing_line_is_swapped_in_when_built_and_the_laps_carry_on(
         inline_race: tuple[Any, Any, Any]) -> None:
     track, expected, _ = inline_race

@@ -57,6 +57,7 @@ def local_campaign(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_campaign_row_is_the_run_alone(local_campaign: Path, alone_sha: str) -> None:
     rows = _rows(local_campaign)
     assert len(rows) == 1
@@ -87,6 +88,7 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow
 def test_cluster_started_here_gives_the_same_rows(local_campaign: Path, tmp_path: Path) -> None:
     """A Ray head started by the test (``ray start --head --block``, stopped by its process
     group: ``ray stop`` would stop every Ray of this machine, other programs' too)."""

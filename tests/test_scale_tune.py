@@ -74,6 +74,7 @@ def test_best_setting_is_a_config_override(tmp_path: Path) -> None:
     assert config.mission.laps == 3  # the tuned --config's overrides are kept
 
 
+@pytest.mark.slow
 def test_short_study_on_ray(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     oval = shared_data("tracks", "eufs", "small_oval.csv")
     space = tmp_path / "space.toml"

@@ -28,6 +28,7 @@ def fsg_run() -> SlamRun:
     return run_slam(drives.drive(drives.FSG, seed=1), MapperConfig(), CarConfig())
 
 
+@pytest.mark.slow
 def test_fsg_lap_closes_the_loop(fsg_run: SlamRun) -> None:
     assert fsg_run.slam.loop_closed
     assert fsg_run.slam.try_close_loop()
@@ -72,6 +73,7 @@ def test_fsg_pose_estimate_has_vehicle_frame_velocity(fsg_run: SlamRun) -> None:
 
 
 @pytest.mark.parametrize("seed", [0, 5, 11])
+@pytest.mark.slow
 def test_loop_closure_on_generated_tracks(seed: int) -> None:
     run = run_slam(drives.drive(f"gen:{seed}", seed=seed), MapperConfig(), CarConfig())
     assert run.slam.loop_closed

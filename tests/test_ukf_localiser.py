@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from scipy.stats import chi2
 
 from common.messages import ConeDetection, GpsFix, ImuSample, WheelSpeeds
@@ -45,6 +46,7 @@ def _nees_run(seed: int) -> np.ndarray:
     return np.array(out)
 
 
+@pytest.mark.slow
 def test_nees_inside_the_95_percent_band() -> None:
     """IMU + odometry + GNSS on the default track's exploration lap: pooled over three drives
     (seeds 0-2: 0.90, 0.99, 0.88), the pose NEES (3 dof) lies in the two-sided 95 % chi-square
@@ -119,6 +121,7 @@ def test_gnss_velocity_only_above_the_speed_threshold() -> None:
     assert ukf.update_gnss_velocity(3.1, 0.01)
 
 
+@pytest.mark.slow
 def test_gyro_bias_state_is_learnt_without_a_standstill() -> None:
     """The car drives off at once (too short a standstill to calibrate) with a 0.003 rad/s gyro
     bias; with the bias states and cone updates on a known map (the unmasked update, the sweeps
