@@ -59,12 +59,17 @@ def _config_command(args: argparse.Namespace, config: AppConfig) -> int:
     return 0
 
 
-def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+def build_parser(command: str | None = None, *, complete: bool = True
+                 ) -> argparse.ArgumentParser:
     """The whole command line: common options, ``config``, and every package's subcommands.
 
     With ``command`` (the first argument), a package that declares ``COMMANDS`` without it is left
     out, so that e.g. ``sim`` does not import every benchmark. With None, or a name that no package
     adds (a typo, whose error then lists every real choice), every package is registered.
+
+    A sub-parser may add its options only when it is used (it has ``load_arguments()``, as each
+    benchmark's does), so ``--help`` imports no benchmark. ``complete`` loads them all now, for
+    code that walks the whole parser; :func:`cli` leaves them to the parse.
     """
     common = argparse.ArgumentParser(add_help=False)
     common.add_argument("--config", metavar="FILE", default=None,
@@ -98,7 +103,20 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     config_parser.add_argument("--print", action="store_true",
                                help="print the merged configuration as TOML")
     config_parser.set_defaults(func=_config_command)
+    if complete:
+        _load_all(parser)
     return parser
+
+
+def _load_all(parser: argparse.ArgumentParser) -> None:
+    """Add the options of every lazily defined sub-parser under ``parser``."""
+    load = getattr(parser, "load_arguments", None)
+    if load is not None:
+        load()
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _load_all(sub)
 
 
 def _setup_logging(verbosity: int) -> None:
@@ -115,7 +133,7 @@ def cli(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     defaulted = not argv or (argv[0].startswith("-") and argv[0] not in ("-h", "--help"))
     parser = build_parser(DEFAULT_COMMAND if defaulted else None if argv[0].startswith("-")
-                          else argv[0])
+                          else argv[0], complete=False)
     choices: dict[str, argparse.ArgumentParser] = (
         parser._subparsers._group_actions[0].choices  # type: ignore[union-attr,assignment]
     )
