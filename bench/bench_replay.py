@@ -94,7 +94,7 @@ def _stage_table(stages_ms: dict[str, dict[str, float]], wall_s: float) -> str:
         return text
 
     parts = 0.0
-    for stage in ("sensors", "mapper", "planner", "health", "controller"):
+    for stage in ("sensors", "mapper", "planner", "health", "controller", "outputs"):
         data = stages_ms.get(stage)
         if data is not None:
             parts += data["total_s"]

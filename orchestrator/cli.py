@@ -52,6 +52,9 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
                      "camera-dead (repeatable)")
     _add_live(sim)
     sim.add_argument("--json", action="store_true", help="print the summary as JSON")
+    sim.add_argument("--profile", action="store_true",
+                     help="also print the budget table: wall ms per simulated second in the "
+                     "simulator, sensor decoding, Mapper, planner, controller and outputs")
     sim.set_defaults(func=_sim)
 
     replay = subparsers.add_parser(
@@ -163,6 +166,12 @@ def _sim(args: argparse.Namespace, config: AppConfig) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(format_summary(summary))
+    if args.profile:
+        from orchestrator.budget import format_budget
+
+        timing = summary["timing"]
+        print(format_budget(timing["budget"], timing["sim_time_s"], timing["wall_time_s"]),
+              file=sys.stderr if args.json else sys.stdout)
     return 0 if summary["stop_reason"] != "timeout" else 1
 
 

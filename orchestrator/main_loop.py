@@ -193,6 +193,8 @@ class Main:
         self.times.add("sensors", t1 - t0)
 
         readings = self.executive.admit(now_s, batch.raw, batch.readings)
+        t2 = time.perf_counter()
+        outputs_s = t2 - t1  # the raw units handed to the recorder
         self.reactive.take(readings)
         t2 = time.perf_counter()
         map_state = self.executive.step(now_s, readings)
@@ -203,8 +205,10 @@ class Main:
         t4 = time.perf_counter()
         plan = self.deliberative.step(now_s, map_state, self.reactive.go, self.reactive.driving)
         if plan is not None:
-            self.times.add("planner", time.perf_counter() - t4)
+            t4p = time.perf_counter()
+            self.times.add("planner", t4p - t4)
             self.output.emit(PLAN, plan, now_s)
+            outputs_s += time.perf_counter() - t4p
 
         t5 = time.perf_counter()
         self.health = self.sensors.health(now_s)
@@ -218,6 +222,8 @@ class Main:
         self.output.emit(COMMAND, command, now_s)
         self.output.step(now_s, map_state, self.plan, command, self.health,
                          truth=self.truth, track=self.track)
-        self.times.add("tick", time.perf_counter() - t0)
+        t7 = time.perf_counter()
+        self.times.add("outputs", outputs_s + t7 - t6)
+        self.times.add("tick", t7 - t0)
         self.ticks += 1
         return command

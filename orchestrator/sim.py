@@ -36,6 +36,7 @@ from common.conventions import wrap_angle
 from common.errors import RecordingError
 from common.messages import ActuatorCommand, AsState, Mission
 from mapper.evaluation import evaluate_map
+from orchestrator.budget import budget_rows
 from orchestrator.config import AppConfig, apply_mission
 from orchestrator.live_recorder import RecorderProcess, recorder_niceness
 from orchestrator.main_loop import Main
@@ -262,25 +263,36 @@ class _SimRunner:
         stop_reason = "timeout"
         finished = False
         progress = _Progress(self.options.progress, config.mission.laps)
+        times = self.main.times
+        perf = time.perf_counter
         for k in range(1, max_ticks + 1):
             t_s = k * dt_s
             if pacer is not None:
                 pacer.sleep_until(t_s)
+            t0 = perf()
             applied = self.person.command(t_s, self.world.truth(), command)
             raw = self.world.step_to(t_s, applied)
             self.clock.set(t_s)
             truth = self.world.truth()
             self.main.truth = truth
+            t1 = perf()
             command = self.main.tick(t_s, raw)
+            t2 = perf()
             if self.main.status_frame is not None:
                 self.world.receive_can((self.main.status_frame,))
+            t3 = perf()
             if k % 10 == 0:
                 self._write_truth(t_s, truth)
+            t4 = perf()
             self._observe(t_s, truth, command)
             laps_done = self.person.lap_times_s()
             progress.update(t_s, len(laps_done), self.person.phase,
                             laps_done[-1] if laps_done else None)
             done, reason, ok = self._done(t_s, truth)
+            t5 = perf()
+            times.add("simulator", t1 - t0 + t3 - t2)
+            times.add("truth_out", t4 - t3)
+            times.add("run", t5 - t4)
             if done:
                 stop_reason, finished = reason, ok
                 break
@@ -393,7 +405,8 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
     map_eval: dict[str, Any] = {}
     if map_state is not None:
         map_eval = evaluate_map(map_state.cones, track.cones_xy_m, track.colours)
-    tick_ms = main.times.summary_ms().get("tick", {})
+    stages_ms = main.times.summary_ms()
+    tick_ms = stages_ms.get("tick", {})
     summary: dict[str, Any] = {
         "track": track.name,
         "seed": config.sim.seed,
@@ -430,7 +443,8 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
             "control_period_target_ms": round(1e3 / config.run.control_rate_hz, 3),
             "control_period_p99_ms": round(1e3 / config.run.control_rate_hz, 3),
             "tick_wall_p99_ms": tick_ms.get("p99_ms"),
-            "stages_ms": main.times.summary_ms(),
+            "stages_ms": stages_ms,
+            "budget": budget_rows(stages_ms, result.sim_time_s, result.wall_time_s),
             "lags_ms": main.lags_ms(),
         },
         "as_state": main.controller.state.name,
