@@ -80,9 +80,12 @@ class RecorderProcess:
     def __init__(self, path: str | Path, config: RecordingConfig, niceness: int,
                  log_level: int = logging.INFO, car: CarConfig | None = None,
                  metadata: Mapping[str, str] | None = None,
-                 start_method: Literal["spawn", "fork"] = "spawn") -> None:
+                 start_method: Literal["spawn", "fork"] = "spawn", blocking: bool = False) -> None:
         self.path = Path(path)
         self.config = config
+        self.blocking = blocking
+        """Wait for room on the list instead of dropping (``sim`` as fast as it goes: a dropped
+        message would break the replay; the loop then waits for the recorder's process)."""
         self._drops = DropCount()
         self.written = 0
         """Messages the recorder's process wrote (known after :meth:`close`)."""
@@ -92,6 +95,7 @@ class RecorderProcess:
         self._calls: list[tuple[Any, ...]] = []
         self._queued = 0
         self._lock = threading.Lock()
+        self._room = threading.Condition(self._lock)
         self._closed = False
         self._wake = threading.Event()
         ours, theirs = link_pair()
@@ -142,7 +146,12 @@ class RecorderProcess:
 
     def _put(self, call: tuple[Any, ...], count: int) -> bool:
         with self._lock:
-            if not self._closed and self._queued + count <= self._capacity:
+            while (self.blocking and not self._closed and self._queued
+                   and self._queued + count > self._capacity and self._sender.is_alive()):
+                self._wake.set()  # send what is queued now, not at the next period
+                self._room.wait(SEND_PERIOD_S)
+            if not self._closed and (self._queued + count <= self._capacity
+                                     or (self.blocking and not self._queued)):
                 self._calls.append(call)
                 self._queued += count
                 return True
@@ -159,10 +168,12 @@ class RecorderProcess:
     def _send_loop(self) -> None:
         while True:
             self._wake.wait(SEND_PERIOD_S)
+            self._wake.clear()
             with self._lock:
                 calls, count = self._calls, self._queued
                 self._calls, self._queued = [], 0
                 closing = self._closed
+                self._room.notify_all()
             try:
                 sent = not calls or self._link.send(RecordBatch(tuple(calls)))
                 why = "the recorder's process is gone"

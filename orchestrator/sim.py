@@ -46,7 +46,6 @@ from orchestrator.outputs import HashSink, start_live
 from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
 from recordings import fsd_pb2
-from recordings.recorder import Recorder
 from recordings.topics import EVAL_POSE_ERROR, TRUTH_POSE, TRUTH_TRACK
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
@@ -202,15 +201,15 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
 
 def _make_recorder(path: Path, config: AppConfig, metadata: dict[str, str],
                    realtime: bool) -> Any:
-    """The run's recorder of ``path``. In real time it is a process of its own, as on the car
-    (:mod:`orchestrator.live_recorder`), forked before any thread starts: a killed run still
-    leaves a complete recording. Otherwise it is in this process and the run waits for it, so
-    that nothing is dropped."""
-    if not realtime:
-        return Recorder(path, config.recording, config.car, metadata=metadata, blocking=True)
+    """The run's recorder of ``path``: a process of its own, as on the car
+    (:mod:`orchestrator.live_recorder`), forked before any thread starts, so the loop pays only
+    the hand-over of its messages and a killed run still leaves a complete recording. In real
+    time it never blocks the loop (what does not fit is dropped and counted, as on the car);
+    otherwise the loop waits for room, so that nothing is dropped."""
     recorder = RecorderProcess(path, config.recording, recorder_niceness(os.nice(0)),
                                log_level=logging.getLogger().getEffectiveLevel(),
-                               car=config.car, metadata=metadata, start_method="fork")
+                               car=config.car, metadata=metadata, start_method="fork",
+                               blocking=not realtime)
     error = recorder.wait_started()
     if error is not None:
         recorder.close()

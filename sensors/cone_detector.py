@@ -39,7 +39,9 @@ from numpy.typing import NDArray
 from common.car import CarConfig
 from common.messages import ConeColour, ConeDetection, ConeSize, LidarCones
 from sensors.config import DetectorConfig
-from sensors.velodyne import RING_ELEVATION_DEG, ReturnWindow
+from sensors.ground import GroundSurface, fit_ground, flat_ground
+from sensors.lidar_models import LIDAR_MODELS, LidarModel, rings_from_elevation
+from sensors.velodyne import ReturnWindow
 
 log = logging.getLogger(__name__)
 
@@ -47,8 +49,7 @@ SMALL_CONE_BASE_M = 0.228
 SMALL_CONE_HEIGHT_M = 0.325
 LARGE_CONE_BASE_M = 0.285
 LARGE_CONE_HEIGHT_M = 0.505
-_TAN_RING = np.tan(np.radians(RING_ELEVATION_DEG))
-_N_RINGS = RING_ELEVATION_DEG.shape[0]
+GROUND_MODELS = ("flat", "estimated")
 
 
 def cone_radius_m(size: ConeSize, height_m: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -63,13 +64,22 @@ def cone_radius_m(size: ConeSize, height_m: NDArray[np.float64]) -> NDArray[np.f
 class ConeDetector:
     """Cones in one sweep of points; see the module docstring for the steps."""
 
-    def __init__(self, config: DetectorConfig, car: CarConfig) -> None:
+    def __init__(self, config: DetectorConfig, car: CarConfig,
+                 model: LidarModel | None = None) -> None:
+        if config.ground not in GROUND_MODELS:
+            raise ValueError(f"sensors.lidar.detector.ground: {config.ground!r} is not one of "
+                             f"{', '.join(GROUND_MODELS)}")
         self.cfg = config
         self.car = car
+        self.model = model if model is not None else LIDAR_MODELS["vlp16"]
+        self._tan_ring = np.tan(np.radians(self.model.ring_elevation_deg))
+        self._n_rings = self.model.beams
         self.lidar_x_m = car.lidar_x_m
         self.lidar_z_m = car.lidar_z_m
         self.stats: dict[str, int] = {}
         """Counts of the last call: points kept at each step, surfaces, preliminary cones."""
+        self.ground = flat_ground(car.lidar_z_m)
+        """The ground of the last sweep (the configured plane with ``ground = "flat"``)."""
 
     def return_window(self) -> ReturnWindow:
         """The returns that can pass this detector's first filters (height above the ground,
@@ -77,6 +87,10 @@ class ConeDetector:
         (the car's own body and the ground are most of a sweep)."""
         cfg = self.cfg
         margin_m = 1e-6
+        if cfg.ground == "estimated":  # the ground's returns are what the ground is fitted to
+            return ReturnWindow(min_range_m=max(cfg.min_range_m - margin_m, 0.0),
+                                max_range_m=cfg.max_range_m + 1.0 + margin_m,
+                                z_min_m=-math.inf, z_max_m=math.inf)
         return ReturnWindow(
             min_range_m=max(cfg.min_range_m - margin_m, 0.0),
             max_range_m=cfg.max_range_m + 1.0 + margin_m,
@@ -84,13 +98,15 @@ class ConeDetector:
             z_max_m=cfg.max_point_height_m - self.lidar_z_m + margin_m,
         )
 
-    def detect(self, points: NDArray[np.float64], rings: NDArray[np.int64],
+    def detect(self, points: NDArray[np.float64], rings: NDArray[np.int64] | None,
                times_s: NDArray[np.float64], timestamp_s: float,
                point_count: int = 0, start_s: float = math.nan) -> LidarCones:
         """Detect cones in one sweep.
 
-        ``points`` (N, 4): x, y, z (m, sensor frame), intensity; ``rings`` (N,) 0..15 by
-        elevation; ``times_s`` (N,) each return's time; ``timestamp_s`` the sweep's end;
+        ``points`` (N, >=3): x, y, z (m, sensor frame)[, intensity]; ``rings`` (N,) the beam
+        of each return numbered by elevation (0 = lowest), or None to find it from each
+        return's elevation with the sensor model's table; ``times_s`` (N,) each return's time;
+        ``timestamp_s`` the sweep's end;
         ``point_count`` the sweep's returns when ``points`` are only those inside
         :meth:`return_window` (0: N) and ``start_s`` the time of its first return (nan: the
         earliest of ``times_s``). Returns cones in the vehicle frame, each stamped with the
@@ -101,7 +117,11 @@ class ConeDetector:
         if math.isnan(start_s):
             start_s = float(times_s.min()) if times_s.size else math.nan
         sweep_start = start_s
-        z_ground = points[:, 2] + self.lidar_z_m
+        if cfg.ground == "estimated":
+            self.ground = self._fit_ground(points)
+            z_ground = points[:, 2] - self.ground.height_m(points[:, 0], points[:, 1])
+        else:
+            z_ground = points[:, 2] + self.lidar_z_m
         keep = (z_ground > cfg.ground_clearance_m) & (z_ground < cfg.max_point_height_m)
         idx = np.flatnonzero(keep)
         x = points[idx, 0]
@@ -128,7 +148,8 @@ class ConeDetector:
             return LidarCones(timestamp_s, (), sweep_start, n_all)
         x, y, r, bearing = x[ok], y[ok], r[ok], bearing[ok]
         z = z_ground[idx]
-        ring = rings[idx]
+        # a cloud saved without ring numbers: each return's ring from its elevation
+        ring = rings[idx] if rings is not None else rings_from_elevation(points[idx], self.model)
         t = times_s[idx]
 
         # --- surfaces: runs along each ring in azimuth order, split at range discontinuities
@@ -153,7 +174,7 @@ class ConeDetector:
         az_step = max(az_step, math.radians(0.05))
         # each return stands for one azimuth step of surface: add one step to the chord
         width = width + sr * az_step
-        good = ((count >= max(cfg.min_surface_points, 2)) & (width < cfg.max_surface_width_m)
+        good = ((count >= max(cfg.min_surface_points, 1)) & (width < cfg.max_surface_width_m)
                 & (sr < cfg.max_range_m))
         self.stats["surfaces"] = int(n_seg)
         self.stats["surfaces_kept"] = int(good.sum())
@@ -180,7 +201,7 @@ class ConeDetector:
         self.stats["clustered"] = int(clustered.sum())
 
         # --- final filter
-        ring_hits = np.zeros((n_cones, _N_RINGS), dtype=np.int64)
+        ring_hits = np.zeros((n_cones, self._n_rings), dtype=np.int64)
         np.add.at(ring_hits, (pcone, pring), 1)
         layers = (ring_hits > 0).sum(axis=1)
         top = np.full(n_cones, -np.inf)
@@ -193,8 +214,10 @@ class ConeDetector:
         layer_ok = (layers >= cfg.min_layers) | (
             (layers >= 1) & (rng > cfg.single_layer_beyond_m)
             & (reachable_small < cfg.min_layers))
-        height_ok = top < cfg.large_height_m + cfg.height_tolerance_m
+        height_ok = (top < cfg.large_height_m + cfg.height_tolerance_m) & (top >= cfg.min_top_m)
         final = ~clustered & layer_ok & (npts >= cfg.min_points) & height_ok
+        if cfg.tall_clearance_m > 0.0 and final.any():
+            final &= ~self._near_tall(points, z_ground, cx, cy)
         # size: a top above small_height_m is a large cone; else compare per-ring counts
         err_small = (((ring_hits - exp_small) ** 2) / (exp_small + 1.0)).sum(axis=1)
         err_large = (((ring_hits - exp_large) ** 2) / (exp_large + 1.0)).sum(axis=1)
@@ -208,7 +231,8 @@ class ConeDetector:
         pt_large = large[pcone]
         radius = np.where(pt_large, cone_radius_m(ConeSize.LARGE, pz),
                           cone_radius_m(ConeSize.SMALL, pz))
-        push = np.bincount(pcone, radius, n_cones) / npts * (math.pi / 4.0)
+        push = (np.bincount(pcone, radius, n_cones) / npts
+                * (math.pi / 4.0 * cfg.centre_push_fraction))
         ux, uy = cx / np.maximum(rng, 1e-9), cy / np.maximum(rng, 1e-9)
         centre_x = cx + ux * push + self.lidar_x_m
         centre_y = cy + uy * push
@@ -229,10 +253,33 @@ class ConeDetector:
             ))
         return LidarCones(timestamp_s, tuple(cones), sweep_start, n_all)
 
+    def _fit_ground(self, points: NDArray[np.float64]) -> GroundSurface:
+        """The ground of this sweep, from its returns within the detector's range."""
+        cfg = self.cfg
+        x, y = points[:, 0], points[:, 1]
+        r2 = x * x + y * y
+        near = (r2 > cfg.min_range_m**2) & (r2 < (cfg.max_range_m + 2.0) ** 2)
+        return fit_ground(x[near], y[near], points[near, 2], cfg.ground_cell_m,
+                          cfg.ground_max_residual_m, self.lidar_z_m)
+
+    def _near_tall(self, points: NDArray[np.float64], z_ground: NDArray[np.float64],
+                   cx: NDArray[np.float64], cy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Which preliminary cones (K,) have a return too high for a cone (a leg, a pole, a
+        barrier) within ``tall_clearance_m`` of their centre (``cx``, ``cy``, sensor frame)."""
+        cfg = self.cfg
+        tall = (z_ground >= cfg.max_point_height_m) & (z_ground < cfg.max_point_height_m + 2.0)
+        if not tall.any():
+            return np.zeros(cx.size, dtype=bool)
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(points[tall, :2])
+        dist = tree.query(np.c_[cx, cy], distance_upper_bound=cfg.tall_clearance_m)[0]
+        return np.asarray(dist < cfg.tall_clearance_m)
+
     def _expected_hits(self, rng: NDArray[np.float64], size: ConeSize,
                        az_step_rad: float) -> NDArray[np.float64]:
-        """Expected returns (K, 16) on each ring of a cone of ``size`` at range ``rng`` (K,)."""
-        h = self.lidar_z_m + rng[:, None] * _TAN_RING[None, :]
+        """Expected returns (K, rings) on each ring of a cone of ``size`` at range ``rng`` (K,)."""
+        h = self.ground.below_sensor_m + rng[:, None] * self._tan_ring[None, :]
         w = 2.0 * cone_radius_m(size, h)
         w = np.where(h > self.cfg.ground_clearance_m, w, 0.0)
         return w / (np.maximum(rng, 1e-3)[:, None] * az_step_rad)
