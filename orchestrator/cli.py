@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -141,6 +142,41 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     emulate.set_defaults(func=_emulate)
 
     _register_render(subparsers, common)
+    _register_detect(subparsers, common)
+
+
+def _register_detect(subparsers: Any, common: argparse.ArgumentParser) -> None:
+    parser = subparsers.add_parser(
+        "detect", parents=[common],
+        help="the car's cone detector on recorded point clouds, scored against their labels",
+        description="Run the car's LiDAR cone detector on a folder of point clouds "
+        "(points/*.bin in the KITTI layout, .npy or .pcd; labels/ scored when present) or on "
+        "a pcap capture, a sweep at a time. Writes detections.csv, summary.json, frames/ and "
+        "report.html into --out.")
+    parser.add_argument("scene", metavar="SCENE", help="scene folder or .pcap capture")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--lidar", metavar="MODEL", default=None,
+                        help="sensor model: vlp16, vlp32c, hdl32e, pandar40p, os1-64 "
+                        "(default: sensors.detect.lidar_model, else sensors.lidar.model)")
+    parser.add_argument("--meta", metavar="JSON", default=None,
+                        help="an Ouster capture's metadata file (beam angles)")
+    parser.add_argument("--frames", type=int, default=-1, metavar="N",
+                        help="draw the first N frames to DIR/frames (default: all; 0: none)")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.set_defaults(func=_detect)
+
+
+def _detect(args: argparse.Namespace, config: AppConfig) -> int:
+    from orchestrator.detect import HEADLINE, run_detect
+
+    summary = run_detect(args, config)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key in HEADLINE:
+            if key in summary:
+                print(f"{key:<26} {summary[key]}")
+    return 0
 
 
 def _add_live(parser: argparse.ArgumentParser) -> None:

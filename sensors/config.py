@@ -88,13 +88,38 @@ class DetectorConfig:
     large_height_m: float = 0.50
     height_tolerance_m: float = 0.05
     """A top measured above large_height_m plus this is not a cone (m)."""
+    min_top_m: float = 0.0
+    """A preliminary cone whose highest return is lower than this above the ground is a bump
+    of the ground, not a cone (m)."""
+    tall_clearance_m: float = 0.0
+    """A preliminary cone with a return higher than ``max_point_height_m`` (a leg, a pole, a
+    barrier) within this horizontal distance of its centre is not a cone (m); 0: no check."""
+    ground: str = "flat"
+    """``flat``: the ground is the plane ``car.lidar_z_m`` below the sensor (the simulator's
+    world); ``estimated``: a smooth surface fitted to the sweep's lowest returns, for real
+    ground that slopes under a sensor whose height is not known exactly."""
+    ground_cell_m: float = 1.0
+    """``estimated`` ground: the size of the cells whose lowest return samples the ground (m)."""
+    ground_max_residual_m: float = 0.06
+    """``estimated`` ground: a cell whose lowest return is farther than this from the fitted
+    surface (a cell filled by an object) is left out of the fit (m)."""
+    centre_push_fraction: float = 1.0
+    """How far the centroid of a cone's returns is pushed back along the line of sight, as a
+    fraction of pi/4 of the cone's radius at each return's height (1: the centre of a cone
+    whose near half is sampled evenly; 0: the centroid of the returns)."""
 
 
 @dataclass(slots=True)
 class LidarConfig:
-    """Velodyne VLP-16 data packets over UDP."""
+    """Spinning LiDAR data packets over UDP (the VLP-16 unless ``model`` says another)."""
 
     enabled: bool = True
+    model: str = "vlp16"
+    """Which sensor sends the packets (sensors/lidar_models.py): ``vlp16``, ``hdl32e`` (Velodyne,
+    port 2368) or ``os1-64`` (Ouster OS1, legacy packets, port 7502, needs ``meta_file``);
+    packets of another model are refused and counted as ``wrong_model``."""
+    meta_file: str = ""
+    """An Ouster's metadata JSON file (beam angles, mode); only for ``os1-64``."""
     host: str = "0.0.0.0"
     port: int = 2368
     timeout_s: float = 0.3
@@ -124,6 +149,37 @@ class CameraConfig:
     """Image-to-arrival latency of the camera pipeline assumed when restamping (s)."""
 
 
+def _real_cloud_detector() -> DetectorConfig:
+    """The detector's settings for real point clouds (``detect``): the ground estimated, a
+    return on its own may be a cone's surface (a 40-beam sensor hits a cone at 10 m once per
+    beam), and clutter rejected by shape."""
+    return DetectorConfig(ground="estimated", min_surface_points=1, min_layers=1, min_points=2,
+                          min_top_m=0.12, tall_clearance_m=0.5, centre_push_fraction=0.0,
+                          fov_half_deg=180.0, max_range_m=13.0)
+
+
+@dataclass(slots=True)
+class SceneDetectConfig:
+    """``python main.py detect``: cone detection in recorded point clouds (a scene folder or a
+    capture), with the car's own body cut out by a footprint in the LiDAR frame."""
+
+    lidar_model: str = ""
+    """The sensor that recorded the clouds (a name of sensors/lidar_models.py); empty: the
+    car's ``sensors.lidar.model``. ``--lidar`` overrides it."""
+    mount_height_m: float = 1.05
+    """The sensor's height above the ground, only a fallback when a sweep shows too little
+    ground to fit (m)."""
+    footprint_front_m: float = 2.4
+    """The car's body reaches this far ahead of the sensor (m); returns on it are dropped."""
+    footprint_rear_m: float = 1.0
+    """The car's body reaches this far behind the sensor (m)."""
+    footprint_half_width_m: float = 0.7
+    """Half the car's width (m)."""
+    detector: DetectorConfig = field(default_factory=_real_cloud_detector)
+    """The same detector the car runs (``sensors.lidar.detector``), set for real ground:
+    copy this section there to run it on the car."""
+
+
 @dataclass(slots=True)
 class SensorsConfig:
     """Every receiver the Sensor Manager builds."""
@@ -133,6 +189,7 @@ class SensorsConfig:
     can: CanConfig = field(default_factory=CanConfig)
     lidar: LidarConfig = field(default_factory=LidarConfig)
     camera: CameraConfig = field(default_factory=CameraConfig)
+    detect: SceneDetectConfig = field(default_factory=SceneDetectConfig)
     queue_length: int = 4096
     stop_timeout_s: float = 1.0
     reconnect_min_s: float = 0.05
