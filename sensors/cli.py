@@ -118,6 +118,7 @@ def decode_nmea_file(path: str | Path) -> Iterator[dict[str, Any]]:
     for fix in parser.flush():
         yield fix_to_json(fix)
     yield {"counts": dict(parser.counts), "rejects": dict(parser.rejects),
+           "talkers": dict(parser.talkers), "cycle_enders": sorted(parser.cycle_enders),
            "bytes": len(data)}
 
 

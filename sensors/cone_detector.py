@@ -118,6 +118,10 @@ class ConeDetector:
             start_s = float(times_s.min()) if times_s.size else math.nan
         sweep_start = start_s
         if cfg.ground == "estimated":
+            # the ground is fitted to, and cones looked for in, the returns within reach
+            reach = self._within_reach(points)
+            points, times_s = points[reach], times_s[reach]
+            rings = rings[reach] if rings is not None else None
             self.ground = self._fit_ground(points)
             z_ground = points[:, 2] - self.ground.height_m(points[:, 0], points[:, 1])
         else:
@@ -221,7 +225,9 @@ class ConeDetector:
         # size: a top above small_height_m is a large cone; else compare per-ring counts
         err_small = (((ring_hits - exp_small) ** 2) / (exp_small + 1.0)).sum(axis=1)
         err_large = (((ring_hits - exp_large) ** 2) / (exp_large + 1.0)).sum(axis=1)
-        large = (top >= cfg.small_height_m) | (err_large < err_small)
+        large = top >= cfg.small_height_m
+        if cfg.size_from_ring_counts:
+            large |= err_large < err_small
         self.stats["cones"] = int(final.sum())
 
         cones: list[ConeDetection] = []
@@ -253,13 +259,19 @@ class ConeDetector:
             ))
         return LidarCones(timestamp_s, tuple(cones), sweep_start, n_all)
 
-    def _fit_ground(self, points: NDArray[np.float64]) -> GroundSurface:
-        """The ground of this sweep, from its returns within the detector's range."""
+    def _within_reach(self, points: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """The returns (N,) that can be ground under a cone or a tall neighbour of one: within
+        the detector's range, with a margin of ``tall_clearance_m`` and one ground cell."""
         cfg = self.cfg
         x, y = points[:, 0], points[:, 1]
         r2 = x * x + y * y
-        near = (r2 > cfg.min_range_m**2) & (r2 < (cfg.max_range_m + 2.0) ** 2)
-        return fit_ground(x[near], y[near], points[near, 2], cfg.ground_cell_m,
+        far_m = cfg.max_range_m + 1.0 + max(cfg.tall_clearance_m, cfg.ground_cell_m)
+        return (r2 > (cfg.min_range_m - cfg.ground_cell_m) ** 2) & (r2 < far_m * far_m)
+
+    def _fit_ground(self, points: NDArray[np.float64]) -> GroundSurface:
+        """The ground of this sweep, from its returns within reach."""
+        cfg = self.cfg
+        return fit_ground(points[:, 0], points[:, 1], points[:, 2], cfg.ground_cell_m,
                           cfg.ground_max_residual_m, self.lidar_z_m)
 
     def _near_tall(self, points: NDArray[np.float64], z_ground: NDArray[np.float64],
@@ -267,14 +279,23 @@ class ConeDetector:
         """Which preliminary cones (K,) have a return too high for a cone (a leg, a pole, a
         barrier) within ``tall_clearance_m`` of their centre (``cx``, ``cy``, sensor frame)."""
         cfg = self.cfg
-        tall = (z_ground >= cfg.max_point_height_m) & (z_ground < cfg.max_point_height_m + 2.0)
-        if not tall.any():
-            return np.zeros(cx.size, dtype=bool)
-        from scipy.spatial import cKDTree
-
-        tree = cKDTree(points[tall, :2])
-        dist = tree.query(np.c_[cx, cy], distance_upper_bound=cfg.tall_clearance_m)[0]
-        return np.asarray(dist < cfg.tall_clearance_m)
+        tall = np.flatnonzero((z_ground >= cfg.max_point_height_m)
+                              & (z_ground < cfg.max_point_height_m + 2.0))
+        near = np.zeros(cx.size, dtype=bool)
+        if tall.size == 0 or cx.size == 0:
+            return near
+        tx, ty = points[tall, 0], points[tall, 1]
+        # only the tall returns in the candidates' bounding box, then every pair
+        c = cfg.tall_clearance_m
+        box = (tx > cx.min() - c) & (tx < cx.max() + c) & (ty > cy.min() - c) & (ty < cy.max() + c)
+        tx, ty = tx[box], ty[box]
+        if tx.size == 0:
+            return near
+        for start in range(0, tx.size, 4096):  # bounded memory for a sweep full of walls
+            dx = cx[:, None] - tx[None, start:start + 4096]
+            dy = cy[:, None] - ty[None, start:start + 4096]
+            near |= ((dx * dx + dy * dy) < c * c).any(axis=1)
+        return near
 
     def _expected_hits(self, rng: NDArray[np.float64], size: ConeSize,
                        az_step_rad: float) -> NDArray[np.float64]:

@@ -88,6 +88,10 @@ class DetectorConfig:
     large_height_m: float = 0.50
     height_tolerance_m: float = 0.05
     """A top measured above large_height_m plus this is not a cone (m)."""
+    size_from_ring_counts: bool = True
+    """A cone whose top is below ``small_height_m`` is still large when its returns per ring
+    fit a large cone better (a sparse sensor's rings miss the top beyond a few metres); off
+    for a sensor whose many beams find every top."""
     min_top_m: float = 0.0
     """A preliminary cone whose highest return is lower than this above the ground is a bump
     of the ground, not a cone (m)."""
@@ -152,10 +156,13 @@ class CameraConfig:
 def _real_cloud_detector() -> DetectorConfig:
     """The detector's settings for real point clouds (``detect``): the ground estimated, a
     return on its own may be a cone's surface (a 40-beam sensor hits a cone at 10 m once per
-    beam), and clutter rejected by shape."""
+    beam), and clutter rejected by shape. With many beams a cone's top is found, so a top
+    above 0.415 m (halfway between a small cone's 0.325 m and a large one's 0.505 m) makes a
+    large cone."""
     return DetectorConfig(ground="estimated", min_surface_points=1, min_layers=1, min_points=2,
                           min_top_m=0.12, tall_clearance_m=0.5, centre_push_fraction=0.0,
-                          fov_half_deg=180.0, max_range_m=13.0)
+                          fov_half_deg=180.0, max_range_m=13.0, small_height_m=0.415,
+                          size_from_ring_counts=False)
 
 
 @dataclass(slots=True)

@@ -62,14 +62,16 @@ def fit_ground(x: NDArray[np.float64], y: NDArray[np.float64], z: NDArray[np.flo
         return flat_ground(fallback_below_sensor_m)
     ix = np.floor(x * (1.0 / cell_m)).astype(np.int64)
     iy = np.floor(y * (1.0 / cell_m)).astype(np.int64)
-    key = (ix - ix.min()) * (int(iy.max() - iy.min()) + 1) + (iy - iy.min())
-    cells, inverse = np.unique(key, return_inverse=True)
-    if cells.size < _MIN_CELLS:
+    ix -= ix.min()
+    iy -= iy.min()
+    key = ix * (int(iy.max()) + 1) + iy
+    # each cell's lowest return (the first of a tie), and where it is
+    floor = np.full(int(key.max()) + 1, np.inf)
+    np.minimum.at(floor, key, z)
+    lowest = np.flatnonzero(z == floor[key])
+    lowest = lowest[np.unique(key[lowest], return_index=True)[1]]
+    if lowest.size < _MIN_CELLS:
         return flat_ground(fallback_below_sensor_m)
-    # each cell's lowest return, and where it is
-    order = np.lexsort((z, inverse))
-    first = np.flatnonzero(np.r_[True, inverse[order][1:] != inverse[order][:-1]])
-    lowest = order[first]
     gx, gy, gz = x[lowest], y[lowest], z[lowest]
     design = np.stack([np.ones_like(gx), gx, gy, gx * gx, gy * gy, gx * gy], axis=1)
     use = np.ones(gx.size, dtype=bool)

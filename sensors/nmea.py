@@ -10,41 +10,55 @@ Two layers, usable apart:
   complete buffer.
 - :class:`NmeaParser` checks each sentence's ``*HH`` checksum (a sentence with a wrong checksum
   never contributes to a fix; one without a checksum is accepted, as gpsd does, unless
-  ``require_checksum``), parses it with pynmea2 and merges the sentences of one epoch (same UTC
-  time) into one :class:`GpsFix`.
+  ``require_checksum``), splits its fields and groups the sentences of one receiver cycle
+  into one :class:`GpsFix`.
 
-Sentences used (any talker: GP, GN, GL, GA, GB, ...): GGA (position, quality, satellites, HDOP,
-altitude above mean sea level), RMC (status, position, speed, course), GLL (position, status),
-GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course), GSA (HDOP when no GGA;
-its fix mode) and GST (the receiver's 1-sigma latitude and longitude errors, m). Others are
-counted by type and otherwise ignored.
+Sentences used (any talker: GP, GN, GL, GA, GB, IN, EC, II, ...): GGA (position, quality,
+satellites, HDOP, altitude above mean sea level), RMC (status, position, speed, course), GLL
+(position, status), GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course), GSA
+(HDOP when no GGA; its fix mode) and GST (the receiver's 1-sigma latitude and longitude errors,
+m). Every other well-formed sentence (GSV, ZDA, TXT, proprietary ``$P...`` sentences, and the
+instrument sentences of a boat's or car's bus: DPT, DBT, MWV, HDG, HDT, VHW, MTW, XDR, ... from
+talkers SD, WI, II, HC, ...) is counted by type and as ``unused``, never read for a fix; talkers
+are counted in ``NmeaParser.talkers``.
 
-Status. The epoch's fix is valid when its latest status-bearing sentence says so: GGA quality
+Status. The cycle's fix is valid when its latest status-bearing sentence says so: GGA quality
 > 0 with satellites, RMC/GLL status ``A`` (FAA mode not ``N``), GNS mode, or a GSA fix mode
-of 2 or 3, which vouches for the epoch's latest position even when that position's own sentence
+of 2 or 3, which vouches for the cycle's latest position even when that position's own sentence
 said otherwise (as gpsd takes it: Garmin and Furuno receivers send a GGA counting 0 satellites,
 then a GSA listing the satellites used); GSA mode 1 means no fix.
 
-Epochs. Receivers send a burst of sentences per navigation epoch (e.g. RMC, VTG, GGA, GSA, GSV,
-GLL at 1-10 Hz). Like gpsd, the parser learns the "cycle ender" (the sentence type that last
-arrived before the UTC time changed) and emits the epoch's fix as soon as that type arrives,
-so a fix is not held back until the next epoch; before the ender is known, a fix is emitted
-when a sentence of a new time arrives (or on :meth:`NmeaParser.flush`). One fix per epoch:
-sentences of an epoch that arrive after its fix was emitted are counted, not re-emitted.
-The fix carries the position of the epoch's latest valid position sentence (as gpsd's report
-does) and its ``timestamp_s`` is the receive time of the epoch's first sentence.
+Cycles, as gpsd groups them. A receiver sends a burst of sentences per navigation cycle (e.g.
+RMC, VTG, GGA, GSA, GSV, GLL at 1-10 Hz); the position sentences of one cycle (GGA, RMC, GLL,
+GNS) carry the same UTC time. A sentence whose time differs from the cycle's (by more than
+:data:`CYCLE_TIME_TOLERANCE_S`) starts the next cycle; sentences without a time (VTG, GSA, GSV,
+instrument sentences) belong to the cycle in progress. When a cycle starts, the type of the last
+time-stamped sentence of the one before is learned as a "cycle ender" (gpsd's rule: several types
+may be enders, as when a receiver's order varies; an RMC saying "no fix" is not a candidate, its
+time is not trusted; on a bus carrying a depth sounder's DBT, as gpsd, no ender is learned after
+the first DBT: there the order of the position sentences drifts). The cycle's fix is reported,
+once valid, at the sentence type that last ended a cycle among those used (usually the ender
+itself, or the GSA after it, whose fix mode may still vouch for or withdraw the fix); a cycle
+that reached an ender but not that sentence is reported when it ends; one that never reached an
+ender is not reported, as gpsd does not (``incomplete_cycle``: a cycle cut short by a restart,
+a splice, a corrupted ender). Until an ender is known (the first cycle), the fix is reported as
+soon as it is valid. One fix per cycle: later sentences of a reported cycle are counted, not
+reported again. A stream without any time stamps starts a new cycle when a position sentence
+type repeats. The fix carries the position of the cycle's latest valid position sentence (as
+gpsd's report does) and its ``timestamp_s`` is the receive time of the cycle's first sentence.
 
 ``GpsFix.utc_time_s`` is the UTC time of day (s since midnight); ``course_rad`` is an ENU yaw
 (counter-clockwise from east), converted from NMEA's degrees clockwise from true north.
 
-Rejects (``NmeaParser.rejects``, by reason): ``bad_checksum``, ``garbled`` (unframeable or
-unparsable text, bad numbers), ``too_long``, ``binary`` (a candidate cut by non-printable
-bytes), ``junk`` (runs of bytes outside any sentence), ``unsupported`` (a sentence type
-pynmea2 does not know), ``no_checksum`` (only with ``require_checksum``), ``no_fix``
-(a position sentence saying there is no fix, or with empty position fields), ``parser_error``
-(an unexpected exception inside the parser: logged with its traceback; a bug).
-``NmeaParser.counts`` counts accepted sentences by type (``GGA``, ``RMC``, ...), ``sentences``
-and ``fixes``.
+Rejects (``NmeaParser.rejects``, by reason): ``bad_checksum``, ``garbled`` (unframeable text, an
+address that is not one, bad numbers or missing fields in a sentence used), ``too_long``,
+``binary`` (a candidate cut by non-printable bytes), ``junk`` (runs of bytes outside any
+sentence), ``no_checksum`` (only with ``require_checksum``), ``no_fix`` (a position sentence
+saying there is no fix, or with empty position fields), ``incomplete_cycle`` (a valid fix whose
+cycle never reached an ender), ``parser_error`` (an unexpected exception inside the parser:
+logged with its traceback; a bug). ``NmeaParser.counts`` counts accepted sentences by type
+(``GGA``, ``RMC``, ``DPT``, ...), ``sentences``, ``unused``, ``fixes`` and ``late_fixes``
+(fixes reported when their cycle ended).
 """
 
 from __future__ import annotations
@@ -52,9 +66,8 @@ from __future__ import annotations
 import collections
 import logging
 import math
+import re
 from dataclasses import dataclass, field
-
-import pynmea2
 
 from common.conventions import compass_deg_to_enu_yaw
 from common.messages import GpsFix
@@ -70,8 +83,15 @@ KNOT_MPS = 1852.0 / 3600.0
 _START = frozenset(b"$!")
 _END = frozenset(b"\r\n")
 _POSITION_TYPES = frozenset({"GGA", "RMC", "GLL", "GNS"})
-_EPOCH_TYPES = _POSITION_TYPES | {"VTG"}
-"""Types that appear once per epoch: a second one means a new epoch began."""
+_USED_TYPES = _POSITION_TYPES | {"VTG", "GSA", "GST"}
+_CONTINUATION_TYPES = frozenset({"DBT"})
+"""Instrument sentences that, as in gpsd, mark a multiplexed bus (a depth sounder's DBT):
+once one is seen, no further cycle enders are learned (the order of the position sentences
+on such a bus drifts, and every type would end up an ender)."""
+CYCLE_TIME_TOLERANCE_S = 0.01
+"""Sentence times closer than this (s) are the same cycle's (gpsd's tolerance)."""
+_ADDRESS = re.compile(r"[A-Z][A-Z0-9]{2,9}")
+"""A sentence's address: talker and type (``GPGGA``), or ``P`` and a proprietary name."""
 _FAA_QUALITY = {"A": 1, "D": 2, "P": 3, "R": 4, "F": 5, "E": 6, "M": 7, "S": 8}
 """FAA mode indicator (RMC, GLL, VTG, GNS) to GGA quality; ``N`` means no fix."""
 
@@ -249,9 +269,21 @@ def _int(value: str | None, default: int) -> int:
     return int(value)
 
 
+
+
+def split_address(address: str) -> tuple[str, str]:
+    """Talker and sentence type of an address: ``GPGGA`` -> ``("GP", "GGA")``; a proprietary
+    sentence (``PGRME``, ``PUBX``) -> ``("P", address)``; ValueError when it is not one."""
+    if not _ADDRESS.fullmatch(address):
+        raise ValueError(f"bad address {address!r}")
+    if address[0] == "P" or len(address) != 5:
+        return "P" if address[0] == "P" else "", address
+    return address[:2], address[2:]
+
+
 @dataclass(slots=True)
-class _Epoch:
-    """What is known about one navigation epoch so far."""
+class _Cycle:
+    """What is known about one receiver cycle so far."""
 
     timestamp_s: float
     utc_time_s: float = math.nan
@@ -267,15 +299,18 @@ class _Epoch:
     lat_sigma_m: float = math.nan
     lon_sigma_m: float = math.nan
     valid: bool = False
-    """What the epoch's latest status-bearing sentence (GGA, RMC, GLL, GNS, GSA) said."""
+    """What the cycle's latest status-bearing sentence (GGA, RMC, GLL, GNS, GSA) said."""
     seen_lat_deg: float = math.nan
     seen_lon_deg: float = math.nan
-    """The latest position of the epoch whatever its sentence's status (a GSA's fix mode may
+    """The latest position of the cycle whatever its sentence's status (a GSA's fix mode may
     vouch for it)."""
     seen_quality: tuple[int, int, float, float] | None = None
     """The latest GGA/GNS quality, satellites, HDOP and altitude, whatever their status."""
     types: set[str] = field(default_factory=set)
-    last_type: str = ""
+    last_timed_type: str = ""
+    """The type of the cycle's latest sentence that carried a time (a cycle-ender candidate)."""
+    last_used_type: str = ""
+    """The type of the cycle's latest sentence used (any of GGA, RMC, GLL, GNS, VTG, GSA, GST)."""
     emitted: bool = False
 
     @property
@@ -304,11 +339,18 @@ class _Epoch:
         )
 
 
+def _same_time(a_s: float, b_s: float) -> bool:
+    """Two UTC times of day (s) within :data:`CYCLE_TIME_TOLERANCE_S`, midnight wrap aside."""
+    return abs(a_s - b_s) <= CYCLE_TIME_TOLERANCE_S
+
+
 class NmeaParser:
-    """NMEA bytes in any chunking to one :class:`GpsFix` per epoch with a valid position.
+    """NMEA bytes in any chunking to one :class:`GpsFix` per receiver cycle with a valid fix.
 
     ``feed`` never raises: anything it cannot use is counted in ``rejects`` by reason (see the
-    module docstring) and logged at debug level.
+    module docstring) and logged at debug level. ``counts`` counts accepted sentences by type,
+    ``talkers`` by talker id (``GP``, ``SD``, ``II``, ``P`` for proprietary); ``cycle_enders``
+    are the sentence types learned to end a cycle.
     """
 
     source = "gps"
@@ -318,8 +360,11 @@ class NmeaParser:
         self.framer = NmeaFramer()
         self.rejects: collections.Counter[str] = self.framer.rejects
         self.counts: collections.Counter[str] = collections.Counter()
-        self._epoch: _Epoch | None = None
-        self._ender: str = ""
+        self.talkers: collections.Counter[str] = collections.Counter()
+        self.cycle_enders: set[str] = set()
+        self._continued = False
+        self._report_at: set[str] = set()
+        self._cycle: _Cycle | None = None
 
     # -- public ---------------------------------------------------------------------------
 
@@ -338,12 +383,22 @@ class NmeaParser:
         return out
 
     def flush(self) -> list[GpsFix]:
-        """End of stream: emit the pending epoch's fix, if it has not been emitted."""
+        """End of stream: parse an unterminated last sentence and end the cycle in progress
+        (reported if valid and it reached an ender)."""
         out: list[GpsFix] = []
         for sentence in self.framer.flush():
-            self._sentence(self._epoch.timestamp_s if self._epoch else 0.0, sentence, out)
-        self._close_epoch(out)
+            self._sentence(self._cycle.timestamp_s if self._cycle else 0.0, sentence, out)
+        self._end_cycle(out)
         return out
+
+    def reset(self) -> None:
+        """A new byte stream (the port was reopened): forget partial sentences, the cycle in
+        progress and the learned cycle enders."""
+        self.framer.reset()
+        self._cycle = None
+        self.cycle_enders.clear()
+        self._report_at.clear()
+        self._continued = False
 
     # -- internals ------------------------------------------------------------------------
 
@@ -368,98 +423,123 @@ class NmeaParser:
         elif problem is not None:
             self._reject(problem, sentence)
             return
-        text = sentence.decode("ascii")
+        star = sentence.rfind(b"*")
+        body = sentence[1:star] if star >= 0 else sentence[1:]
+        fields = body.decode("ascii").split(",")
         try:
-            msg = pynmea2.parse(text)
-        except pynmea2.SentenceTypeError:
-            self._reject("unsupported", sentence)
-            return
-        except (pynmea2.ParseError, ValueError, TypeError, AttributeError, KeyError,
-                IndexError):
+            talker, kind = split_address(fields[0])
+        except ValueError:
             self._reject("garbled", sentence)
             return
-        kind = str(getattr(msg, "sentence_type", "") or type(msg).__name__)
         self.counts["sentences"] += 1
         self.counts[kind] += 1
-        handler = getattr(self, f"_on_{kind.lower()}", None)
-        if handler is None:
+        self.talkers[talker] += 1
+        if kind not in _USED_TYPES or talker == "P":
+            self.counts["unused"] += 1
+            if kind in _CONTINUATION_TYPES:
+                self._continued = True
             return
-        handler(timestamp_s, msg, sentence, out)
+        getattr(self, f"_on_{kind.lower()}")(timestamp_s, fields[1:], sentence, out)
 
-    # Epoch bookkeeping ---------------------------------------------------------------
+    # Cycle bookkeeping ---------------------------------------------------------------
 
-    def _epoch_for(self, timestamp_s: float, kind: str, utc_time_s: float,
-                   out: list[GpsFix]) -> _Epoch:
-        """The epoch a sentence of ``kind`` at ``utc_time_s`` (NaN if it has none) belongs to."""
-        epoch = self._epoch
-        if epoch is not None:
-            new_time = (math.isfinite(utc_time_s) and math.isfinite(epoch.utc_time_s)
-                        and abs(utc_time_s - epoch.utc_time_s) > 1e-6)
-            repeated = kind in _EPOCH_TYPES and kind in epoch.types
-            if new_time or repeated:
-                if new_time and epoch.last_type:
-                    self._ender = epoch.last_type
-                self._close_epoch(out)
-                epoch = None
-        if epoch is None:
-            epoch = _Epoch(timestamp_s=timestamp_s)
-            self._epoch = epoch
-        if math.isfinite(utc_time_s) and not math.isfinite(epoch.utc_time_s):
-            epoch.utc_time_s = utc_time_s
-        return epoch
+    def _cycle_for(self, timestamp_s: float, kind: str, utc_time_s: float,
+                   out: list[GpsFix], ender_candidate: bool = True) -> _Cycle:
+        """The cycle a sentence of ``kind`` carrying ``utc_time_s`` (NaN: no time) belongs
+        to; a new one when its time differs from the cycle's (learning the ender), or, in a
+        stream without times, when a position type repeats. ``ender_candidate`` False: the
+        sentence's time groups it but does not make its type a cycle-ender candidate (an RMC
+        saying "no fix", whose time gpsd does not trust: MTK and Garmin receivers send a
+        stale one)."""
+        cycle = self._cycle
+        timed = math.isfinite(utc_time_s)
+        if cycle is not None:
+            if timed and math.isfinite(cycle.utc_time_s):
+                new = not _same_time(utc_time_s, cycle.utc_time_s)
+            else:
+                new = (not timed and not math.isfinite(cycle.utc_time_s)
+                       and kind in _POSITION_TYPES and kind in cycle.types)
+            if new:
+                self._end_cycle(out)
+                if timed and cycle.last_timed_type and not self._continued:
+                    if cycle.last_timed_type not in self.cycle_enders:
+                        self.cycle_enders.add(cycle.last_timed_type)
+                        log.debug("NMEA: %s learned as a cycle ender", cycle.last_timed_type)
+                    self._report_at.add(cycle.last_used_type)
+                cycle = None
+        if cycle is None:
+            cycle = _Cycle(timestamp_s=timestamp_s)
+            self._cycle = cycle
+        if timed:
+            if not math.isfinite(cycle.utc_time_s):
+                cycle.utc_time_s = utc_time_s
+            if ender_candidate:
+                cycle.last_timed_type = kind
+        cycle.last_used_type = kind
+        return cycle
 
-    def _close_epoch(self, out: list[GpsFix]) -> None:
-        epoch = self._epoch
-        self._epoch = None
-        if epoch is not None and epoch.reportable:
-            self._emit(epoch, out)
+    def _end_cycle(self, out: list[GpsFix]) -> None:
+        """The cycle in progress is over (call before learning from it): a valid fix not yet
+        reported is reported if the cycle reached an ender (or no ender is known yet), else
+        counted as ``incomplete_cycle``."""
+        cycle = self._cycle
+        self._cycle = None
+        if cycle is None or not cycle.reportable:
+            return
+        if cycle.types & self.cycle_enders:
+            self.counts["late_fixes"] += 1
+            self._emit(cycle, out)
+        elif self.cycle_enders:
+            self.rejects["incomplete_cycle"] += 1
+            log.debug("NMEA: cycle at %.2f s UTC never reached its ender (%s); not reported",
+                      cycle.utc_time_s, sorted(self.cycle_enders))
+        else:
+            self._emit(cycle, out)
 
-    def _emit(self, epoch: _Epoch, out: list[GpsFix]) -> None:
-        epoch.emitted = True
-        out.append(epoch.to_fix())
+    def _emit(self, cycle: _Cycle, out: list[GpsFix]) -> None:
+        cycle.emitted = True
+        out.append(cycle.to_fix())
         self.counts["fixes"] += 1
 
-    def _done(self, epoch: _Epoch, kind: str, out: list[GpsFix]) -> None:
-        """Record that ``kind`` arrived; emit when the epoch is complete.
-
-        Complete means: ``kind`` is the learned cycle ender, or (no ender learned yet) it
-        carried a valid position.
-        """
-        epoch.types.add(kind)
-        epoch.last_type = kind
-        if not epoch.reportable:
+    def _done(self, cycle: _Cycle, kind: str, out: list[GpsFix]) -> None:
+        """Record that ``kind`` arrived; report the cycle's fix when it is valid and ``kind``
+        is where cycles end (or, no ender known yet, at once)."""
+        cycle.types.add(kind)
+        if not cycle.reportable:
             return
-        if kind == self._ender or (not self._ender and kind in _POSITION_TYPES):
-            self._emit(epoch, out)
+        if kind in self._report_at or (not self.cycle_enders
+                                       and kind in _POSITION_TYPES | {"GSA"}):
+            self._emit(cycle, out)
 
-    def _set_status(self, epoch: _Epoch, valid: bool, lat_deg: float, lon_deg: float) -> None:
+    def _set_status(self, cycle: _Cycle, valid: bool, lat_deg: float, lon_deg: float) -> None:
         """A status-bearing sentence's verdict; its position when valid. A position sent with
         a no-fix status is kept aside (``seen_*``) for a later GSA that reports a fix."""
-        if epoch.emitted:
+        if cycle.emitted:
             return
-        epoch.valid = valid
+        cycle.valid = valid
         if math.isfinite(lat_deg) and math.isfinite(lon_deg):
-            epoch.seen_lat_deg, epoch.seen_lon_deg = lat_deg, lon_deg
+            cycle.seen_lat_deg, cycle.seen_lon_deg = lat_deg, lon_deg
         if valid:
-            epoch.lat_deg, epoch.lon_deg = lat_deg, lon_deg
+            cycle.lat_deg, cycle.lon_deg = lat_deg, lon_deg
 
-    # Sentence handlers (named _on_<type>) --------------------------------------------
+    # Sentence handlers (named _on_<type>; ``data``: the fields after the address) -------
 
-    def _utc(self, value: str | None) -> float:
+    @staticmethod
+    def _utc(value: str | None) -> float:
         return _time_of_day(value) if value else math.nan
 
-    def _on_gga(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_gga(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        utc = self._utc(msg.data[0])
-        quality = _int(msg.data[5], 0)
-        sats = _int(msg.data[6], -1)
+        utc = self._utc(data[0])
+        quality = _int(data[5], 0)
+        sats = _int(data[6], -1)
         # gpsd: a GGA claiming a fix from zero satellites is no fix.
         claims = quality > 0 and sats != 0
-        lat, lon = _position(msg.data[1], msg.data[2], msg.data[3], msg.data[4], claims)
+        lat, lon = _position(data[1], data[2], data[3], data[4], claims)
         valid = claims and math.isfinite(lat)
         sats = max(sats, 0)
-        hdop = _float(msg.data[7])
-        alt = _float(msg.data[8]) if len(msg.data) > 8 else math.nan
+        hdop = _float(data[7])
+        alt = _float(data[8]) if len(data) > 8 else math.nan
         self._position_fix(timestamp_s, "GGA", utc, valid, lat, lon, (quality, sats, hdop, alt),
                            raw, out)
 
@@ -467,22 +547,21 @@ class NmeaParser:
                       lat: float, lon: float, quality_sats_hdop_alt: tuple[int, int, float, float],
                       raw: bytes, out: list[GpsFix]) -> None:
         """The shared end of GGA and GNS: position, quality, satellites, HDOP and height into
-        the epoch (a position sentence without a fix is counted as ``no_fix``)."""
-        epoch = self._epoch_for(timestamp_s, kind, utc, out)
-        self._set_status(epoch, valid, lat, lon)
-        if not epoch.emitted:
-            epoch.seen_quality = quality_sats_hdop_alt
+        the cycle (a position sentence without a fix is counted as ``no_fix``)."""
+        cycle = self._cycle_for(timestamp_s, kind, utc, out)
+        self._set_status(cycle, valid, lat, lon)
+        if not cycle.emitted:
+            cycle.seen_quality = quality_sats_hdop_alt
         if valid:
-            if not epoch.emitted:
-                (epoch.fix_quality, epoch.satellites, epoch.hdop,
-                 epoch.altitude_m) = quality_sats_hdop_alt
+            if not cycle.emitted:
+                (cycle.fix_quality, cycle.satellites, cycle.hdop,
+                 cycle.altitude_m) = quality_sats_hdop_alt
         else:
             self._reject("no_fix", raw)
-        self._done(epoch, kind, out)
+        self._done(cycle, kind, out)
 
-    def _on_rmc(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_rmc(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
         utc = self._utc(data[0])
         mode = data[11] if len(data) > 11 else ""
         claims = data[1] == "A" and mode != "N"
@@ -490,42 +569,41 @@ class NmeaParser:
         valid = claims and math.isfinite(lat)
         speed_kn = _float(data[6])
         course = _float(data[7])
-        epoch = self._epoch_for(timestamp_s, "RMC", utc, out)
-        self._set_status(epoch, valid, lat, lon)
+        cycle = self._cycle_for(timestamp_s, "RMC", utc, out,
+                                ender_candidate=data[1] in ("A", "D") and bool(data[8]))
+        self._set_status(cycle, valid, lat, lon)
         if valid:
-            if not epoch.emitted:
+            if not cycle.emitted:
                 # the FAA mode gives the quality unless a valid GGA/GNS already did
-                if epoch.fix_quality == 0 or not ({"GGA", "GNS"} & epoch.types):
-                    epoch.fix_quality = max(epoch.fix_quality, _FAA_QUALITY.get(mode, 1))
+                if cycle.fix_quality == 0 or not ({"GGA", "GNS"} & cycle.types):
+                    cycle.fix_quality = max(cycle.fix_quality, _FAA_QUALITY.get(mode, 1))
                 if math.isfinite(speed_kn):
-                    epoch.speed_mps = speed_kn * KNOT_MPS
+                    cycle.speed_mps = speed_kn * KNOT_MPS
                 if math.isfinite(course):
-                    epoch.course_deg = course
+                    cycle.course_deg = course
         else:
             self._reject("no_fix", raw)
-        self._done(epoch, "RMC", out)
+        self._done(cycle, "RMC", out)
 
-    def _on_gll(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_gll(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
         utc = self._utc(data[4]) if len(data) > 4 else math.nan
         status = data[5] if len(data) > 5 else ""
         mode = data[6] if len(data) > 6 else ""
         claims = status == "A" and mode != "N"
         lat, lon = _position(data[0], data[1], data[2], data[3], claims)
         valid = claims and math.isfinite(lat)
-        epoch = self._epoch_for(timestamp_s, "GLL", utc, out)
-        self._set_status(epoch, valid, lat, lon)
+        cycle = self._cycle_for(timestamp_s, "GLL", utc, out)
+        self._set_status(cycle, valid, lat, lon)
         if valid:
-            if not epoch.emitted and epoch.fix_quality == 0:
-                epoch.fix_quality = _FAA_QUALITY.get(mode, 1)
+            if not cycle.emitted and cycle.fix_quality == 0:
+                cycle.fix_quality = _FAA_QUALITY.get(mode, 1)
         else:
             self._reject("no_fix", raw)
-        self._done(epoch, "GLL", out)
+        self._done(cycle, "GLL", out)
 
-    def _on_gns(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_gns(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
         utc = self._utc(data[0])
         modes = data[5] if len(data) > 5 else ""
         quality = max((_FAA_QUALITY.get(m, 0) for m in modes), default=0)
@@ -537,57 +615,59 @@ class NmeaParser:
         self._position_fix(timestamp_s, "GNS", utc, valid, lat, lon, (quality, sats, hdop, alt),
                            raw, out)
 
-    def _on_vtg(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_vtg(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
         course = _float(data[0])
         speed_kn = _float(data[4]) if len(data) > 4 else math.nan
         speed_kmh = _float(data[6]) if len(data) > 6 else math.nan
         mode = data[8] if len(data) > 8 else ""
-        epoch = self._epoch_for(timestamp_s, "VTG", math.nan, out)
-        if mode != "N" and not epoch.emitted:
+        cycle = self._cycle_for(timestamp_s, "VTG", math.nan, out)
+        if mode != "N" and not cycle.emitted:
             if math.isfinite(speed_kmh):
-                epoch.speed_mps = speed_kmh / 3.6
+                cycle.speed_mps = speed_kmh / 3.6
             elif math.isfinite(speed_kn):
-                epoch.speed_mps = speed_kn * KNOT_MPS
+                cycle.speed_mps = speed_kn * KNOT_MPS
             if math.isfinite(course):
-                epoch.course_deg = course
-        self._done(epoch, "VTG", out)
+                cycle.course_deg = course
+        self._done(cycle, "VTG", out)
 
-    def _on_gst(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_gst(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
-        epoch = self._epoch_for(timestamp_s, "GST", self._utc(data[0]), out)
-        if not epoch.emitted:
-            epoch.lat_sigma_m = _float(data[5]) if len(data) > 5 else math.nan
-            epoch.lon_sigma_m = _float(data[6]) if len(data) > 6 else math.nan
-        self._done(epoch, "GST", out)
+        # GST's time is the time of the fix it qualifies, but gpsd leaves it out of cycle
+        # detection; so do we: it goes into the cycle in progress when its time agrees.
+        cycle = self._cycle_for(timestamp_s, "GST", math.nan, out)
+        utc = self._utc(data[0])
+        same = not (math.isfinite(utc) and math.isfinite(cycle.utc_time_s)) or _same_time(
+            utc, cycle.utc_time_s)
+        if not cycle.emitted and same:
+            cycle.lat_sigma_m = _float(data[5]) if len(data) > 5 else math.nan
+            cycle.lon_sigma_m = _float(data[6]) if len(data) > 6 else math.nan
+        self._done(cycle, "GST", out)
 
-    def _on_gsa(self, timestamp_s: float, msg: pynmea2.NMEASentence, raw: bytes,
+    def _on_gsa(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        data = msg.data
         hdop = _float(data[15]) if len(data) > 15 else math.nan
         mode = data[1] if len(data) > 1 else ""
-        epoch = self._epoch_for(timestamp_s, "GSA", math.nan, out)
-        if not epoch.emitted:
-            if math.isfinite(hdop) and not math.isfinite(epoch.gsa_hdop):
-                epoch.gsa_hdop = hdop
+        cycle = self._cycle_for(timestamp_s, "GSA", math.nan, out)
+        if not cycle.emitted:
+            if math.isfinite(hdop) and not math.isfinite(cycle.gsa_hdop):
+                cycle.gsa_hdop = hdop
             if mode == "1":
-                self._set_status(epoch, False, math.nan, math.nan)
-            elif mode in ("2", "3") and not epoch.valid and math.isfinite(epoch.seen_lat_deg):
-                self._gsa_fix(epoch, sum(1 for prn in data[2:14] if prn))
-        self._done(epoch, "GSA", out)
+                self._set_status(cycle, False, math.nan, math.nan)
+            elif mode in ("2", "3") and not cycle.valid and math.isfinite(cycle.seen_lat_deg):
+                self._gsa_fix(cycle, sum(1 for prn in data[2:14] if prn))
+        self._done(cycle, "GSA", out)
 
-    def _gsa_fix(self, epoch: _Epoch, used: int) -> None:
-        """A GSA reports a 2D/3D fix while the epoch's latest position sentence said no fix:
+    def _gsa_fix(self, cycle: _Cycle, used: int) -> None:
+        """A GSA reports a 2D/3D fix while the cycle's latest position sentence said no fix:
         that position stands (as gpsd takes it: a GGA counting 0 satellites, then a GSA
         listing the ``used`` ones, as Garmin and Furuno receivers send), with the GGA's
         quality, HDOP and height when there was one."""
-        self._set_status(epoch, True, epoch.seen_lat_deg, epoch.seen_lon_deg)
-        quality, sats, hdop, alt = epoch.seen_quality or (0, 0, math.nan, math.nan)
-        epoch.fix_quality = max(epoch.fix_quality, quality, 1)
-        epoch.satellites = max(epoch.satellites, sats, used)
+        self._set_status(cycle, True, cycle.seen_lat_deg, cycle.seen_lon_deg)
+        quality, sats, hdop, alt = cycle.seen_quality or (0, 0, math.nan, math.nan)
+        cycle.fix_quality = max(cycle.fix_quality, quality, 1)
+        cycle.satellites = max(cycle.satellites, sats, used)
         if math.isfinite(hdop):
-            epoch.hdop = hdop
+            cycle.hdop = hdop
         if math.isfinite(alt):
-            epoch.altitude_m = alt
+            cycle.altitude_m = alt
