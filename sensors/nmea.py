@@ -39,9 +39,9 @@ time is not trusted; on a bus carrying a depth sounder's DBT, as gpsd, no ender 
 the first DBT: there the order of the position sentences drifts). The cycle's fix is reported,
 once valid, at the sentence type that last ended a cycle among those used (usually the ender
 itself, or the GSA after it, whose fix mode may still vouch for or withdraw the fix); a cycle
-that reached an ender but not that sentence is reported when it ends; one that never reached an
-ender is not reported, as gpsd does not (``incomplete_cycle``: a cycle cut short by a restart,
-a splice, a corrupted ender). Until an ender is known (the first cycle), the fix is reported as
+that reached an ender but not that sentence, or that lost a sentence to a bad checksum (perhaps
+its ender), is reported when it ends; one that never reached an ender is not reported, as gpsd
+does not (``incomplete_cycle``: a cycle cut short by a restart or a splice). Until an ender is known (the first cycle), the fix is reported as
 soon as it is valid. One fix per cycle: later sentences of a reported cycle are counted, not
 reported again. A stream without any time stamps starts a new cycle when a position sentence
 type repeats. The fix carries the position of the cycle's latest valid position sentence (as
@@ -312,6 +312,8 @@ class _Cycle:
     last_used_type: str = ""
     """The type of the cycle's latest sentence used (any of GGA, RMC, GLL, GNS, VTG, GSA, GST)."""
     emitted: bool = False
+    corrupted: bool = False
+    """A sentence was lost inside the cycle (bad checksum, garbled): maybe its ender."""
 
     @property
     def has_position(self) -> bool:
@@ -404,6 +406,8 @@ class NmeaParser:
 
     def _reject(self, reason: str, sentence: bytes) -> None:
         self.rejects[reason] += 1
+        if reason in ("bad_checksum", "garbled") and self._cycle is not None:
+            self._cycle.corrupted = True
         log.debug("NMEA reject %s: %r", reason, sentence[:100])
 
     def _sentence(self, timestamp_s: float, sentence: bytes, out: list[GpsFix]) -> None:
@@ -480,13 +484,13 @@ class NmeaParser:
 
     def _end_cycle(self, out: list[GpsFix]) -> None:
         """The cycle in progress is over (call before learning from it): a valid fix not yet
-        reported is reported if the cycle reached an ender (or no ender is known yet), else
-        counted as ``incomplete_cycle``."""
+        reported is reported if the cycle reached an ender, lost a sentence to corruption, or
+        no ender is known yet; else counted as ``incomplete_cycle``."""
         cycle = self._cycle
         self._cycle = None
         if cycle is None or not cycle.reportable:
             return
-        if cycle.types & self.cycle_enders:
+        if cycle.types & self.cycle_enders or cycle.corrupted:
             self.counts["late_fixes"] += 1
             self._emit(cycle, out)
         elif self.cycle_enders:
