@@ -6,7 +6,9 @@ Prints one JSON object per line per decoded reading, then one line ``{"counts": 
 - ``decode nmea FILE``: a raw NMEA byte stream (a serial capture). Lines starting with ``#``
   (the comments of the gpsd test captures) are dropped; everything else is fed to the parser as
   bytes, in chunks, stamped with the time it would take to arrive at 9600 baud.
-- ``decode lidar FILE.pcap [--points-out P.npy]``: Velodyne VLP-16 packets (sensors.decode_lidar).
+- ``decode lidar FILE.pcap [--points-out P.npy] [--lidar MODEL] [--meta JSON]``: LiDAR packets
+  of ``--lidar`` (else the config's ``lidar.model``): VLP-16, HDL-32E, Ouster OS1-64 (legacy
+  packets, beam angles from its metadata JSON ``--meta``) (sensors.decode_lidar).
 - ``decode can FILE [--dbc D.dbc]``: candump / ASC / BLF logs (sensors.decode_can).
 """
 
@@ -40,10 +42,17 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     nmea.add_argument("file", metavar="FILE", help="raw capture; '#' comment lines are skipped")
     nmea.set_defaults(func=_decode_nmea)
 
-    lidar = kinds.add_parser("lidar", parents=[common], help="Velodyne VLP-16 pcap")
+    lidar = kinds.add_parser("lidar", parents=[common],
+                             help="LiDAR pcap (VLP-16, HDL-32E, Ouster OS1-64)")
     lidar.add_argument("file", metavar="FILE.pcap")
     lidar.add_argument("--points-out", metavar="P.npy", default=None,
                        help="write every return as an (N, 4) array x, y, z (m), intensity")
+    lidar.add_argument("--lidar", metavar="MODEL", default=None,
+                       help="the sensor: vlp16, hdl32e, os1-64 (default: the config's "
+                            "sensors.lidar.model)")
+    lidar.add_argument("--meta", metavar="JSON", default=None,
+                       help="an Ouster's metadata file (beam angles, mode; default: the "
+                            "config's sensors.lidar.meta_file)")
     lidar.set_defaults(func=_decode_lidar)
 
     can = kinds.add_parser("can", parents=[common], help="CAN log (candump, ASC, BLF)")
@@ -165,10 +174,14 @@ def _load(module_name: str, function: str) -> Any:
 def _decode_lidar(args: argparse.Namespace, config: object) -> int:
     if not _check_file(args.file):
         return 2
+    if args.meta is not None and not _check_file(args.meta):
+        return 2
     decode_pcap = _load("sensors.decode_lidar", "decode_pcap")
     if decode_pcap is None:
         return 2
-    return _print_all(decode_pcap(args.file, args.points_out))
+    lidar_config = getattr(getattr(config, "sensors", None), "lidar", None)
+    return _print_all(decode_pcap(args.file, args.points_out, lidar_config, None,
+                                  args.lidar, args.meta))
 
 
 def _decode_can(args: argparse.Namespace, config: object) -> int:

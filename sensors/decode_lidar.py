@@ -1,18 +1,26 @@
-"""Offline decoding of a VLP-16 capture: ``python main.py decode lidar FILE.pcap``.
+"""Offline decoding of a LiDAR capture: ``python main.py decode lidar FILE.pcap [--lidar MODEL]
+[--meta JSON]``.
 
 :func:`read_pcap_udp` reads a classic libpcap file (either byte order, micro- or nanosecond
 stamps; Ethernet with optional VLAN tags, Linux cooked capture or raw IPv4 links) and yields the
-UDP datagrams. :func:`decode_pcap` feeds the data packets (port 2368, 1206 bytes) through the
-same :class:`~sensors.lidar_parser.LidarParser` the live receiver uses and yields one dict per
-sweep, then a final ``{"counts": {...}, "rejects": {...}}``.
+UDP datagrams. :func:`decode_pcap` feeds the data packets (Velodyne: port 2368, 1206 bytes;
+Ouster: port 7502, 12 608 bytes for an OS1-64) through the same
+:class:`~sensors.lidar_parser.LidarParser` the live receiver uses and yields one dict per
+sweep, then a final ``{"counts": {...}, "rejects": {...}}``. :func:`iter_pcap_sweeps` yields
+the sweeps' points themselves, one sweep at a time (for ``detect``).
 
-Packets from another Velodyne model than the VLP-16 (:mod:`sensors.velodyne_model`: product id
-and packet timing) are refused: counted as ``wrong_model``, by model in ``refused_models``,
-logged in one line, never decoded.
+The model is the config's ``lidar.model`` or the one given: ``vlp16`` (default), ``hdl32e``
+or ``os1-64`` (an Ouster OS1 in the legacy packet format, with its metadata JSON file).
+Packets from another model (another Velodyne, told by its product id and packet timing,
+:mod:`sensors.velodyne_model`; an Ouster's or a Velodyne's packets when the other is
+configured) are refused: counted as ``wrong_model``, by model in ``refused_models``, logged in
+one line, never decoded.
 
-``points_out`` receives every return of every good VLP-16 data packet as an (N, 4) float64 array:
-x, y, z (m) in the SENSOR frame as velodyne-decoder gives it (x forward = azimuth 0, y left,
-z up, origin at the optical centre) and the reflectivity 0..255.
+``points_out`` receives every return of every decoded data packet as an (N, 4) float64 array:
+x, y, z (m) in the SENSOR frame -- a Velodyne's as velodyne-decoder gives it (x forward =
+azimuth 0, y left, z up, origin at the optical centre) with its reflectivity 0..255, an
+Ouster's as ouster-sdk's ``XYZLut`` gives it by default (lidar-to-sensor transform and beam
+origin offset included, :mod:`sensors.ouster`) with its signal (photons).
 """
 
 from __future__ import annotations
@@ -21,16 +29,22 @@ import logging
 import struct
 from collections import Counter
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from common.car import CarConfig
 from common.errors import DecodeError
 from sensors.config import LidarConfig
-from sensors.lidar_parser import LidarParser
-from sensors.velodyne import PACKET_SIZE, POSITION_PACKET_SIZE, decode_packets
+from sensors.lidar_parser import LidarParser, SweepSource, open_model
+from sensors.ouster import DATA_PORT as OUSTER_DATA_PORT
+from sensors.ouster import IMU_PACKET_SIZE as OUSTER_IMU_PACKET_SIZE
+from sensors.ouster import IMU_PORT as OUSTER_IMU_PORT
+from sensors.ouster import legacy_beams_of_size
+from sensors.velodyne import PACKET_SIZE, POSITION_PACKET_SIZE
 
 log = logging.getLogger(__name__)
 
@@ -114,31 +128,50 @@ def _udp_payload(ip: bytes) -> tuple[int, bytes] | None:
     return port, payload
 
 
+def _datagrams(path: str | Path, counts: Counter[str]) -> Iterator[tuple[float, bytes]]:
+    """The datagrams of a capture that may be a LiDAR's data packets (to the Velodyne's or the
+    Ouster's port, or of their sizes), with their capture times; position and IMU packets and
+    other traffic are only counted."""
+    for stamp, port, payload in read_pcap_udp(path, counts):
+        size = len(payload)
+        if port == POSITION_PORT or size == POSITION_PACKET_SIZE:
+            counts["position_packets"] += 1
+        elif port == OUSTER_IMU_PORT or size == OUSTER_IMU_PACKET_SIZE:
+            counts["imu_packets"] += 1
+        elif (port in (DATA_PORT, OUSTER_DATA_PORT) or size == PACKET_SIZE
+              or legacy_beams_of_size(size) is not None):
+            counts["data_packets"] += 1
+            yield stamp, payload
+        else:
+            counts["other_udp"] += 1
+
+
 def decode_pcap(path: str, points_out: str | None = None,
                 config: LidarConfig | None = None,
-                car: CarConfig | None = None) -> Iterator[dict[str, Any]]:
-    """Decode a VLP-16 pcap: one dict per sweep, then ``{"counts": ..., "rejects": ...}`` (and
-    ``"refused_models"`` when another sensor's packets were refused).
+                car: CarConfig | None = None, model: str | None = None,
+                meta_path: str | None = None) -> Iterator[dict[str, Any]]:
+    """Decode a capture of the LiDAR ``model`` (default ``config.model``, the VLP-16; an
+    Ouster needs ``meta_path`` or ``config.meta_file``): one dict per sweep, then
+    ``{"counts": ..., "rejects": ...}`` (and ``"refused_models"`` when another sensor's packets
+    were refused).
 
     Each sweep dict has ``time`` (end of the sweep, pcap clock, s), ``sweep_start``,
     ``points`` (returns in the sweep) and ``cones`` (detections in the VEHICLE frame:
-    ``x_m``, ``y_m``, ``size``, ``height_m``, ``time``). Datagrams to other ports are counted;
-    1206-byte datagrams that do not decode are counted as rejects by reason.
+    ``x_m``, ``y_m``, ``size``, ``height_m``, ``time``). Position and IMU packets and other
+    datagrams are counted; data packets that do not decode are counted as rejects by reason.
+    Raises :class:`~common.errors.ConfigError` (one line) for an unknown or undecoded model or
+    a missing or bad metadata file.
     """
+    config = config if config is not None else LidarConfig()
+    config = replace(config, model=model or config.model,
+                     meta_file=meta_path or config.meta_file)
     counts: Counter[str] = Counter()
     parser = LidarParser(config, car)
     all_points: list[np.ndarray] = []
     if points_out is not None:
         parser.on_packet = lambda _stamp, payload: all_points.append(
-            decode_packets([payload], checked=True).points)
-    for stamp, port, payload in read_pcap_udp(path, counts):
-        if port == POSITION_PORT or len(payload) == POSITION_PACKET_SIZE:
-            counts["position_packets"] += 1
-            continue
-        if port != DATA_PORT and len(payload) != PACKET_SIZE:
-            counts["other_udp"] += 1
-            continue
-        counts["data_packets"] += 1
+            parser.decoder.decode_points(payload))
+    for stamp, payload in _datagrams(path, counts):
         for sweep in parser.feed(stamp, payload):
             yield _sweep_dict(sweep)
     for sweep in parser.flush():
@@ -152,9 +185,48 @@ def decode_pcap(path: str, points_out: str | None = None,
         counts["points_written"] = int(arr.shape[0])
     final: dict[str, Any] = {"counts": dict(sorted(counts.items())),
                              "rejects": dict(sorted(parser.rejects.items()))}
-    if parser.guard.refused:
-        final["refused_models"] = dict(sorted(parser.guard.refused.items()))
+    refused = parser.refused
+    if refused:
+        final["refused_models"] = dict(sorted(refused.items()))
     yield final
+
+
+Sweep = tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], float]
+"""One sweep of :func:`iter_pcap_sweeps`: points, rings, times_s, sweep_end_s."""
+
+
+def iter_pcap_sweeps(path: str | Path, model_name: str, meta_path: str | Path | None = None,
+                     *, cut_azimuth_deg: float = 180.0) -> Iterator[Sweep]:
+    """The sweeps of a LiDAR capture, one at a time, every return of each (no window).
+
+    ``model_name`` is a ``lidar.model`` name (``vlp16``, ``hdl32e``, ``os1-64``; see
+    :mod:`sensors.lidar_models`); an Ouster needs its metadata JSON file ``meta_path``. Sweeps
+    are cut where the azimuth passes ``cut_azimuth_deg`` (deg clockwise from x: 180, behind).
+    Yields ``(points, rings, times_s, sweep_end_s)``:
+
+    - ``points`` (N, 4) float64: x, y, z (m) in the SENSOR frame (Velodyne: velodyne-decoder's,
+      x forward, y left, z up, origin at the optical centre; Ouster: ouster-sdk's ``XYZLut``
+      sensor frame), intensity (a Velodyne's reflectivity 0..255, an Ouster's signal);
+    - ``rings`` (N,) int64: the beam by elevation, 0 = the lowest;
+    - ``times_s`` (N,) float64: each return's time (s), the sensor's own stamps mapped onto the
+      capture's clock (pcap time);
+    - ``sweep_end_s`` float: the time of the sweep's last return (s, the same clock).
+
+    Packets of another model are refused and counted, bad ones rejected (logged, never raised).
+    Raises :class:`~common.errors.ConfigError` for an unknown or undecoded model or a missing or
+    bad metadata file, :class:`~common.errors.DecodeError` for a file that is not a pcap.
+    """
+    model, meta = open_model(model_name, None if meta_path is None else str(meta_path))
+    source = SweepSource(model, meta, cut_azimuth_deg)
+    counts: Counter[str] = Counter()
+    for stamp, payload in _datagrams(path, counts):
+        for sweep in source.feed(stamp, payload):
+            yield sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s
+    for sweep in source.flush():
+        yield sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s
+    if source.rejects:
+        log.info("%s: %d data packets, rejected %s, refused %s", path, counts["data_packets"],
+                 dict(source.rejects), dict(source.refused))
 
 
 def _sweep_dict(sweep: Any) -> dict[str, Any]:

@@ -84,9 +84,10 @@ _VLP32C = LidarModel(
 
 _HDL32E = LidarModel(
     "hdl32e", "Velodyne HDL-32E",
-    tuple(float(round(e, 2)) for pair in zip(np.linspace(-30.67, -10.67, 16),
-                                             np.linspace(-9.33, 10.67, 16), strict=True)
-          for e in pair),
+    (-30.67, -9.33, -29.33, -8.0, -28.0, -6.67, -26.67, -5.33,
+     -25.33, -4.0, -24.0, -2.67, -22.67, -1.33, -21.33, 0.0,
+     -20.0, 1.33, -18.67, 2.67, -17.33, 4.0, -16.0, 5.33,
+     -14.67, 6.67, -13.33, 8.0, -12.0, 9.33, -10.67, 10.67),
     1.0, 100.0, 10.0, 0.16, "HDL-32E user manual 63-9113 rev M, appendix A")
 
 _PANDAR40P = LidarModel(

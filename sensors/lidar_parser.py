@@ -1,41 +1,273 @@
-"""VLP-16 data packets to cone detections: model check, sweep assembly and the cone detector.
+"""LiDAR data packets to cone detections: model check, sweep assembly and the cone detector.
+
+The sensor is the config's ``lidar.model`` (:mod:`sensors.lidar_models`): the Velodyne VLP-16
+(the default) or HDL-32E (:mod:`sensors.velodyne`, :mod:`sensors.hdl32e`), or the Ouster
+OS1-64 in the legacy packet format (:mod:`sensors.ouster`, with its metadata file
+``lidar.meta_file``). The other names of the table (``vlp32c``, ``pandar40p``) are refused at
+start with one clear error: their packets are not decoded.
 
 The same object serves the live UDP receiver, the simulation loop and replay: feed it each
 datagram with its arrival time on the Clock and it returns a :class:`LidarCones` whenever a
 sweep completes. Bad datagrams are counted in ``rejects`` by reason and logged, never raised;
-well-formed packets from another Velodyne model (:mod:`sensors.velodyne_model`) are refused and
-counted as ``wrong_model``.
+well-formed packets of another model than the configured one (another Velodyne, told by
+:mod:`sensors.velodyne_model`; an Ouster packet to a Velodyne's parser or a Velodyne packet to
+an Ouster's, told by their size and flags) are refused, counted as ``wrong_model`` (by model in
+``refused``) and logged in one line.
 """
 
 from __future__ import annotations
 
+import inspect
 import logging
 from collections import Counter
 from collections.abc import Callable
 
+import numpy as np
+from numpy.typing import NDArray
+
 from common.car import CarConfig
-from common.errors import DecodeError
+from common.errors import ConfigError, DecodeError
 from common.messages import LidarCones, LidarPoints
 from sensors.cone_detector import ConeDetector
 from sensors.config import LidarConfig
-from sensors.velodyne import SweepAssembler, check_packet, reject_reason
-from sensors.velodyne_model import ModelGuard
+from sensors.lidar_models import LidarModel, lidar_model
+from sensors.ouster import (
+    OusterMeta,
+    OusterPacketInfo,
+    OusterSweepAssembler,
+    legacy_beams_of_size,
+    load_meta,
+)
+from sensors.ouster import check_packet as check_ouster_packet
+from sensors.ouster import decode_packets as decode_ouster_packets
+from sensors.velodyne import (
+    BLOCKS_PER_PACKET,
+    PACKET_SIZE,
+    VLP16_LAYOUT,
+    ReturnWindow,
+    SweepAssembler,
+    VelodyneLayout,
+    check_packet,
+    decode_packets,
+    reject_reason,
+)
+from sensors.velodyne_model import LOG_EVERY, PRODUCT_IDS, ModelGuard
 
 log = logging.getLogger(__name__)
 
+DECODED_MODELS = ("vlp16", "hdl32e", "os1-64")
+"""The ``lidar.model`` names whose packets are decoded."""
+_VelodyneItem = tuple[float, bytes, tuple[int, ...]]
+
+
+def _velodyne_layout(name: str) -> VelodyneLayout:
+    if name == "hdl32e":
+        from sensors.hdl32e import HDL32E_LAYOUT
+        return HDL32E_LAYOUT
+    return VLP16_LAYOUT
+
+
+def open_model(name: str, meta_file: str | None = None) -> tuple[LidarModel, OusterMeta | None]:
+    """The sensor called ``name`` (``lidar.model``) and, for an Ouster, its metadata read from
+    ``meta_file`` (its beam elevations replace the nominal table). Raises :class:`ConfigError`
+    (one line) for an unknown or undecoded model, or a missing or bad metadata file."""
+    try:
+        model = lidar_model(name)
+    except ValueError as exc:
+        raise ConfigError(f"lidar.model: {exc}") from None
+    if model.name not in DECODED_MODELS:
+        raise ConfigError(f"lidar.model {model.name!r} ({model.title}): its packets are not "
+                          f"decoded; choose one of {', '.join(DECODED_MODELS)}")
+    if model.name != "os1-64":
+        return model, None
+    if not meta_file:
+        raise ConfigError(f"lidar.model {model.name!r} needs the sensor's metadata JSON file "
+                          "(lidar.meta_file, or --meta FILE): its beam angles come from there")
+    meta = load_meta(meta_file)
+    if meta.beams != model.beams:
+        raise ConfigError(f"{meta.source}: metadata of a sensor with {meta.beams} beams, but "
+                          f"lidar.model {model.name!r} has {model.beams}")
+    return model.with_elevations(tuple(float(e) for e in meta.beam_altitude_deg)), meta
+
+
+def foreign_model(payload: bytes, ouster: bool) -> str | None:
+    """The sensor a datagram that is not the configured model's comes from, if it is one we
+    know: a Velodyne data packet (1206 bytes, every block flagged 0xFFEE; named by its product
+    id) when ``ouster`` is configured, a legacy Ouster lidar packet (told by its size) when a
+    Velodyne is; None when it is neither (garbage, a truncated packet)."""
+    if ouster:
+        if (len(payload) == PACKET_SIZE
+                and payload[0:1200:100] == b"\xff" * BLOCKS_PER_PACKET
+                and payload[1:1200:100] == b"\xee" * BLOCKS_PER_PACKET):
+            product = payload[1205]
+            return "Velodyne " + PRODUCT_IDS.get(product, f"(product id 0x{product:02X})")
+        return None
+    beams = legacy_beams_of_size(len(payload))
+    return None if beams is None else f"Ouster OS1 ({beams} beams, legacy packets)"
+
+
+class SweepSource:
+    """Datagrams of the configured LiDAR in, sweeps (:class:`~common.messages.LidarPoints`)
+    out: packet checks, the model check and the sweep assembly, no detection.
+
+    ``model`` and ``meta`` as :func:`open_model` returns them; ``window`` chooses the returns
+    decoded (None: all). ``rejects`` counts bad and refused datagrams by reason,
+    ``refused`` the refused ones by model, ``counts["packets"]`` the decoded ones.
+    ``on_packet(timestamp_s, payload)``, when set, sees every packet that is decoded, in order.
+    """
+
+    def __init__(self, model: LidarModel, meta: OusterMeta | None = None,
+                 cut_azimuth_deg: float = 180.0, window: ReturnWindow | None = None,
+                 source: str = "lidar") -> None:
+        self.model = model
+        self.meta = meta
+        self.source = source
+        self.rejects: Counter[str] = Counter()
+        self.counts: Counter[str] = Counter()
+        self.on_packet: Callable[[float, bytes], None] | None = None
+        self._foreign: Counter[str] = Counter()
+        self.ouster: OusterSweepAssembler | None = None
+        self.velodyne: SweepAssembler | None = None
+        self.guard: ModelGuard[_VelodyneItem] | None = None
+        if meta is not None:
+            self.ouster = OusterSweepAssembler(meta, cut_azimuth_deg, window=window)
+        else:
+            layout = _velodyne_layout(model.name)
+            self.velodyne = SweepAssembler(cut_azimuth_deg=cut_azimuth_deg, window=window,
+                                           layout=layout)
+            self.guard = ModelGuard(source, expected=layout.name)
+            """Items: a packet's arrival time, payload and :func:`check_packet` fields."""
+
+    @property
+    def refused(self) -> Counter[str]:
+        """Packets refused as another sensor's, by model."""
+        out = Counter(self._foreign)
+        if self.guard is not None:
+            out.update(self.guard.refused)
+        return out
+
+    def feed(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
+        """Take one datagram; return the sweeps it completes (usually none)."""
+        if self.ouster is not None:
+            return self._feed_ouster(self.ouster, timestamp_s, payload)
+        try:
+            fields = check_packet(payload)
+        except DecodeError as exc:
+            foreign = foreign_model(payload, ouster=False)
+            if foreign is not None:
+                self._refuse_foreign(foreign, f"a datagram of {len(payload)} bytes")
+            else:
+                self._reject(exc)
+            return []
+        assert self.guard is not None
+        guard = self.guard
+        refused = guard.refused_count
+        admitted = guard.admit((timestamp_s, payload, fields), payload)
+        self._count_refused(guard.refused_count - refused)
+        return self._assemble(admitted)
+
+    def flush(self) -> list[LidarPoints]:
+        """End of a file or a stream: the packets held back and the partial sweep."""
+        if self.ouster is not None:
+            return self.ouster.flush()
+        assert self.guard is not None and self.velodyne is not None
+        refused = self.guard.refused_count
+        out = self._assemble(self.guard.flush())
+        self._count_refused(self.guard.refused_count - refused)
+        return out + self.velodyne.flush()
+
+    def decode_points(self, payload: bytes) -> NDArray[np.float64]:
+        """Every return of one packet that was decoded (``on_packet`` saw it), (N, 4): x, y, z
+        (m, sensor frame), intensity."""
+        if self.ouster is not None:
+            return decode_ouster_packets([payload], self.ouster.geometry).points
+        assert self.velodyne is not None
+        return decode_packets([payload], checked=True, layout=self.velodyne.layout).points
+
+    def _assemble(self, admitted: list[_VelodyneItem]) -> list[LidarPoints]:
+        assert self.velodyne is not None
+        out: list[LidarPoints] = []
+        for timestamp_s, payload, fields in admitted:
+            if self.on_packet is not None:
+                self.on_packet(timestamp_s, payload)
+            out.extend(self.velodyne.add_checked(timestamp_s, payload, fields))
+            self.counts["packets"] += 1
+        return out
+
+    def _feed_ouster(self, assembler: OusterSweepAssembler, timestamp_s: float,
+                     payload: bytes) -> list[LidarPoints]:
+        if len(payload) != assembler.geometry.meta.packet_size:
+            foreign = foreign_model(payload, ouster=True)
+            if foreign is None:
+                beams = legacy_beams_of_size(len(payload))
+                foreign = None if beams is None else f"Ouster OS1 ({beams} beams)"
+            if foreign is not None:
+                self._refuse_foreign(foreign, f"a datagram of {len(payload)} bytes")
+                return []
+        try:
+            info: OusterPacketInfo | None = check_ouster_packet(payload, assembler.geometry)
+        except DecodeError as exc:
+            self._reject(exc)
+            return []
+        self.counts["packets"] += 1
+        if self.on_packet is not None:
+            self.on_packet(timestamp_s, payload)
+        if info is None:
+            return []  # no good column: nothing to decode
+        return assembler.add_checked(timestamp_s, payload, info)
+
+    def _reject(self, exc: DecodeError) -> None:
+        reason = reject_reason(exc)
+        self.rejects[reason] += 1
+        if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
+            log.warning("%s: rejected datagram (%s; %d so far)", self.source, exc,
+                        self.rejects[reason])
+
+    def _count_refused(self, n: int) -> None:
+        if n:
+            self.rejects["wrong_model"] += n
+
+    def _refuse_foreign(self, model: str, why: str) -> None:
+        self.rejects["wrong_model"] += 1
+        self._foreign[model] += 1
+        n = self._foreign[model]
+        if n == 1 or n % LOG_EVERY == 0:
+            log.warning("%s: refusing the packets of another sensor, %s (%s): only the %s's "
+                        "are decoded (lidar.model), another sensor's data is never turned into "
+                        "points (%d refused so far)", self.source, model, why, self.model.title,
+                        n)
+
+
+def _make_detector(config: LidarConfig, car: CarConfig, model: LidarModel
+                   ) -> tuple[ConeDetector, bool]:
+    """The cone detector for ``model``, and whether it can detect in its sweeps (a detector
+    that does not take the sensor model knows the VLP-16's 16 rings only)."""
+    if "model" in inspect.signature(ConeDetector).parameters:
+        return ConeDetector(config.detector, car, model=model), True  # type: ignore[call-arg]
+    detector = ConeDetector(config.detector, car)
+    if model.name == "vlp16":
+        return detector, True
+    log.warning("lidar: this build's cone detector knows the VLP-16's rings only: the %s's "
+                "sweeps are decoded but give no cones", model.title)
+    return detector, False
+
 
 class LidarParser:
-    """VLP-16 datagrams in, one :class:`LidarCones` per completed sweep out.
+    """Datagrams of the configured LiDAR in, one :class:`LidarCones` per completed sweep out.
 
     ``feed(timestamp_s, payload)``: ``timestamp_s`` is the datagram's arrival time (s), taken
-    as :data:`sensors.velodyne.PACKET_DURATION_S` after its first firing. ``rejects`` counts
-    bad datagrams by reason (``bad_length``, ``bad_flag``, ``bad_azimuth``, ``wrong_model``:
-    another sensor's packets, by model in ``guard.refused``); ``counts`` counts ``packets``,
-    ``sweeps``, ``points`` and ``cones``. ``on_packet(timestamp_s, payload)``, when set, sees
-    every packet that is decoded (a VLP-16's, in order). ``last_sweep`` keeps the last sweep's
-    points (for drawing and tests): only those that can be part of a cone (the detector's
+    as the packet's duration after its first firing (a Velodyne) or as its last column's time
+    (an Ouster). ``rejects`` counts bad datagrams by reason (``bad_length``, ``bad_flag``,
+    ``bad_azimuth``, ``bad_column``, ``wrong_model``: another sensor's packets, by model in
+    ``refused``); ``counts`` counts ``packets``, ``sweeps``, ``points`` and ``cones``.
+    ``on_packet(timestamp_s, payload)``, when set, sees every packet that is decoded (the
+    configured model's, in order). ``last_sweep`` keeps the last sweep's points (for drawing
+    and tests): only those that can be part of a cone (the detector's
     :meth:`~sensors.cone_detector.ConeDetector.return_window`: the ground and the car's own
     body are left out while decoding), or every return with ``all_points``.
+
+    Raises :class:`ConfigError` (one line) when ``config.model`` is unknown or not decoded, or
+    an Ouster's ``config.meta_file`` is missing or bad.
     """
 
     source = "lidar"
@@ -43,62 +275,47 @@ class LidarParser:
     def __init__(self, config: LidarConfig | None = None, car: CarConfig | None = None,
                  all_points: bool = False) -> None:
         config = config if config is not None else LidarConfig()
-        self.detector = ConeDetector(config.detector, car if car is not None else CarConfig())
+        model, meta = open_model(config.model, config.meta_file)
+        self.model = model
+        """The sensor (with an Ouster's own beam elevations)."""
+        self.detector, self._detects = _make_detector(
+            config, car if car is not None else CarConfig(), model)
         window = None if all_points else self.detector.return_window()
-        self.assembler = SweepAssembler(cut_azimuth_deg=config.cut_azimuth_deg,
-                                        window=window)
-        self.rejects: Counter[str] = Counter()
-        self.counts: Counter[str] = Counter()
+        self.decoder = SweepSource(model, meta, config.cut_azimuth_deg, window, self.source)
+        self.rejects = self.decoder.rejects
+        self.counts = self.decoder.counts
         self.last_sweep: LidarPoints | None = None
-        self.guard: ModelGuard[tuple[float, bytes, tuple[int, ...]]] = ModelGuard(self.source)
-        """Items: a packet's arrival time, payload and :func:`check_packet` fields."""
-        self.on_packet: Callable[[float, bytes], None] | None = None
+
+    @property
+    def on_packet(self) -> Callable[[float, bytes], None] | None:
+        """Sees every packet that is decoded (see the class docstring)."""
+        return self.decoder.on_packet
+
+    @on_packet.setter
+    def on_packet(self, hook: Callable[[float, bytes], None] | None) -> None:
+        self.decoder.on_packet = hook
+
+    @property
+    def refused(self) -> Counter[str]:
+        """Packets refused as another sensor's, by model."""
+        return self.decoder.refused
 
     def feed(self, timestamp_s: float, payload: bytes) -> list[LidarCones]:
         """Take one datagram; return the cones of the sweeps it completes (usually none)."""
-        payload = bytes(payload)
-        try:
-            fields = check_packet(payload)
-        except DecodeError as exc:
-            reason = reject_reason(exc)
-            self.rejects[reason] += 1
-            if self.rejects[reason] <= 3 or self.rejects[reason] % 1000 == 0:
-                log.warning("lidar: rejected datagram (%s; %d so far)", exc, self.rejects[reason])
-            return []
-        return self._assemble(self._admit(
-            lambda: self.guard.admit((timestamp_s, payload, fields), payload)))
+        return [self._detect(s) for s in self.decoder.feed(timestamp_s, bytes(payload))]
 
     def flush(self) -> list[LidarCones]:
         """Detect cones in the partial sweep collected so far (end of a file or a stream)."""
-        out = self._assemble(self._admit(self.guard.flush))
-        return out + [self._detect(s) for s in self.assembler.flush()]
-
-    def _admit(self, decide: Callable[[], list[tuple[float, bytes, tuple[int, ...]]]]
-               ) -> list[tuple[float, bytes, tuple[int, ...]]]:
-        """Run the model guard; count what it refused."""
-        refused = self.guard.refused_count
-        admitted = decide()
-        refused = self.guard.refused_count - refused
-        if refused:
-            self.rejects["wrong_model"] += refused
-        return admitted
-
-    def _assemble(self, admitted: list[tuple[float, bytes, tuple[int, ...]]]
-                  ) -> list[LidarCones]:
-        out: list[LidarCones] = []
-        for timestamp_s, payload, fields in admitted:
-            if self.on_packet is not None:
-                self.on_packet(timestamp_s, payload)
-            sweeps = self.assembler.add_checked(timestamp_s, payload, fields)
-            self.counts["packets"] += 1
-            if sweeps:
-                out.extend(self._detect(s) for s in sweeps)
-        return out
+        return [self._detect(s) for s in self.decoder.flush()]
 
     def _detect(self, sweep: LidarPoints) -> LidarCones:
         self.last_sweep = sweep
-        cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s, sweep.timestamp_s,
-                                     sweep.return_count, sweep.start_s)
+        if self._detects:
+            cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s,
+                                         sweep.timestamp_s, sweep.return_count, sweep.start_s)
+        else:
+            cones = LidarCones(sweep.timestamp_s, (), sweep.start_s,
+                               sweep.return_count or int(sweep.points.shape[0]))
         self.counts["sweeps"] += 1
         self.counts["points"] += cones.point_count
         self.counts["cones"] += len(cones.cones)

@@ -1,6 +1,8 @@
-"""Velodyne VLP-16 data packets: decoding (vectorised numpy) and sweep assembly.
+"""Velodyne data packets (VLP-16, HDL-32E): decoding (vectorised numpy) and sweep assembly.
 
-A data packet is the 1206-byte UDP payload the sensor sends to port 2368:
+A data packet is the 1206-byte UDP payload the sensor sends to port 2368 (described here for
+the VLP-16; the HDL-32E's differs only in its :class:`VelodyneLayout`, :mod:`sensors.hdl32e`:
+32 returns of one firing sequence per block, lasers 1.152 us apart in a 46.08 us sequence):
 
 - 12 data blocks of 100 bytes: flag ``0xFFEE`` (bytes ``FF EE``), azimuth (uint16 LE,
   hundredths of a degree, clockwise seen from above, 0 = the sensor's front), then 32 channel
@@ -10,8 +12,9 @@ A data packet is the 1206-byte UDP payload the sensor sends to port 2368:
 - a 4-byte timestamp (uint32 LE, microseconds past the hour, of the first firing of block 0),
 - 2 factory bytes: return mode (0x37 strongest, 0x38 last, 0x39 dual) and product id
   (0x22 VLP-16; early VLP-16 firmware reports 0x21, the HDL-32E's id). This module decodes
-  whatever it is given as a VLP-16; :mod:`sensors.velodyne_model` decides beforehand, from these
-  bytes and the packet timing, which packets are a VLP-16's.
+  whatever it is given with the layout it is told (default the VLP-16's);
+  :mod:`sensors.velodyne_model` decides beforehand, from these bytes and the packet timing,
+  which packets are the configured model's.
 
 Lasers fire every 2.304 us inside a 55.296 us firing sequence (VLP-16 user manual, 63-9243
 rev E, section 9). The azimuth of every return is interpolated from the block azimuth with the
@@ -80,20 +83,6 @@ LASER_RING = np.argsort(np.argsort(LASER_ELEVATION_DEG)).astype(np.int64)
 RING_ELEVATION_DEG = np.sort(LASER_ELEVATION_DEG)
 """Vertical angle of each ring 0..15 (deg), ascending."""
 
-# float32 tables, as velodyne-decoder computes them, so the rounding of azimuths agrees
-_RETURN_TIME_S = np.array(
-    [
-        [np.float32(FIRING_CYCLE_S * (2 * i + j // LASERS) + LASER_TIME_S * (j % LASERS))
-         for j in range(RETURNS_PER_BLOCK)]
-        for i in range(BLOCKS_PER_PACKET)
-    ],
-    dtype=np.float32,
-)
-"""Time of each (block, return) after the first firing of block 0 (s), (12, 32) float32."""
-_RETURN_TIME_FLAT = _RETURN_TIME_S.ravel().astype(np.float64)
-_DT_IN_BLOCK_S = (_RETURN_TIME_S[0] - _RETURN_TIME_S[0, 0]).astype(np.float32)  # (32,)
-_SINGLE_SPAN_S = np.float32(_RETURN_TIME_S[BLOCKS_PER_PACKET - 1, 0] - _RETURN_TIME_S[0, 0])
-_DUAL_SPAN_S = np.float32(_RETURN_TIME_S[(BLOCKS_PER_PACKET - 1) // 2, 0] - _RETURN_TIME_S[0, 0])
 _RETURN = np.dtype({"names": ["d", "r"], "formats": ["<u2", "u1"], "offsets": [0, 2],
                     "itemsize": 3})
 _BLOCK_AZIMUTHS_AND_TIME = struct.Struct("<" + "2xH96x" * BLOCKS_PER_PACKET + "I")
@@ -101,8 +90,64 @@ _FLAGS_FF = b"\xff" * BLOCKS_PER_PACKET
 _FLAGS_EE = b"\xee" * BLOCKS_PER_PACKET
 _COS_AZ = np.cos(np.radians(np.arange(36000) * 0.01))
 _SIN_AZ = np.sin(np.radians(np.arange(36000) * 0.01))
-_COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
-_SIN_EL = np.sin(np.radians(LASER_ELEVATION_DEG))
+
+
+class VelodyneLayout:
+    """One Velodyne model's laser angles and firing timing in the common 1206-byte packet.
+
+    ``elevation_deg`` and ``vertical_offset_m`` (m, added to z) are by laser id, (lasers,);
+    ``lasers`` is 16 (each data block holds two firing sequences, as the VLP-16's) or 32 (one,
+    as the HDL-32E's). ``firing_cycle_s`` is one firing sequence of every laser, recharge
+    included; ``laser_time_s`` the time between two successive lasers of a sequence.
+
+    The timing table ``return_time_s`` (12, 32) float32 (s after the packet's first firing) and
+    the azimuth interpolation follow ``velodyne-decoder`` (and the ROS driver) exactly, in
+    float32, so that both give the same points.
+    """
+
+    def __init__(self, name: str, elevation_deg: Sequence[float] | NDArray[np.float64],
+                 vertical_offset_m: Sequence[float] | NDArray[np.float64],
+                 firing_cycle_s: float, laser_time_s: float,
+                 distance_unit_m: float = 0.002) -> None:
+        elevation = np.asarray(elevation_deg, dtype=np.float64)
+        lasers = int(elevation.shape[0])
+        if lasers not in (16, 32) or len(vertical_offset_m) != lasers:
+            raise ValueError(f"{name}: 16 or 32 lasers with one offset each, not {lasers}")
+        self.name = name
+        """The model's name as :mod:`sensors.velodyne_model` writes it (``"HDL-32E"``)."""
+        self.lasers = lasers
+        self.firings_per_block = RETURNS_PER_BLOCK // lasers
+        self.elevation_deg = elevation
+        self.vertical_offset_m = np.asarray(vertical_offset_m, dtype=np.float64)
+        self.distance_unit_m = distance_unit_m
+        self.firing_cycle_s = firing_cycle_s
+        self.laser_time_s = laser_time_s
+        self.packet_duration_s = BLOCKS_PER_PACKET * self.firings_per_block * firing_cycle_s
+        """Time spanned by one single-return packet (s)."""
+        self.laser_ring = np.argsort(np.argsort(elevation, kind="stable"),
+                                     kind="stable").astype(np.int64)
+        """Ring number (0 = lowest) of each laser id, (lasers,)."""
+        self.ring_elevation_deg = np.sort(elevation)
+        k = self.firings_per_block
+        self.return_time_s = np.array(
+            [[np.float32(firing_cycle_s * (k * i + j // lasers) + laser_time_s * (j % lasers))
+              for j in range(RETURNS_PER_BLOCK)] for i in range(BLOCKS_PER_PACKET)],
+            dtype=np.float32)
+        """Time of each (block, return) after the first firing of block 0 (s), (12, 32)."""
+        self.return_time_flat = self.return_time_s.ravel().astype(np.float64)
+        self.dt_in_block_s = (self.return_time_s - self.return_time_s[:, :1]).ravel()
+        """Each (block, return)'s time after its block's first firing, float32 (s), (384,)."""
+        self.single_span_s = np.float32(self.return_time_s[BLOCKS_PER_PACKET - 1, 0]
+                                        - self.return_time_s[0, 0])
+        self.dual_span_s = np.float32(self.return_time_s[(BLOCKS_PER_PACKET - 1) // 2, 0]
+                                      - self.return_time_s[0, 0])
+        self.cos_el = np.cos(np.radians(elevation))
+        self.sin_el = np.sin(np.radians(elevation))
+
+
+VLP16_LAYOUT = VelodyneLayout("VLP-16", LASER_ELEVATION_DEG, LASER_VERTICAL_OFFSET_M,
+                              FIRING_CYCLE_S, LASER_TIME_S, DISTANCE_UNIT_M)
+"""The VLP-16 (the default everywhere in this module)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,6 +161,11 @@ class ReturnWindow:
     max_range_m: float = math.inf
     z_min_m: float = -math.inf
     z_max_m: float = math.inf
+
+    def inside(self, xy: NDArray[np.float64], z: NDArray[np.float64]) -> NDArray[np.intp]:
+        """The indices of the returns (horizontal range ``xy``, height ``z``, (N,), m) inside."""
+        return np.flatnonzero((xy >= self.min_range_m) & (xy <= self.max_range_m)
+                              & (z >= self.z_min_m) & (z <= self.z_max_m))
 
 
 @dataclass(frozen=True, slots=True)
@@ -155,9 +205,10 @@ def check_packet(payload: bytes) -> tuple[int, ...]:
 
 
 def decode_packets(payloads: Sequence[bytes], checked: bool = False,
-                   window: ReturnWindow | None = None) -> DecodedPackets:
-    """Decode VLP-16 data packets, vectorised over all of them; only the returns inside
-    ``window`` when one is given.
+                   window: ReturnWindow | None = None,
+                   layout: VelodyneLayout = VLP16_LAYOUT) -> DecodedPackets:
+    """Decode the data packets of the Velodyne ``layout`` (default VLP-16), vectorised over all
+    of them; only the returns inside ``window`` when one is given.
 
     Raises :class:`DecodeError` (message starting with the reject reason ``bad_length``,
     ``bad_flag`` or ``bad_azimuth``) if any of them is malformed; ``checked=True`` skips the
@@ -188,13 +239,12 @@ def decode_packets(payloads: Sequence[bytes], checked: bool = False,
         valid &= (~dual[:, None] | (np.arange(BLOCKS_PER_PACKET)[None, :] % 2 == 1))[:, :, None]
     flat = np.flatnonzero(valid)
     returns = int(flat.size)
-    laser_id = flat & 15
-    dist_m = distance.ravel()[flat] * DISTANCE_UNIT_M
-    xy = dist_m * _COS_EL[laser_id]
-    z = dist_m * _SIN_EL[laser_id] + LASER_VERTICAL_OFFSET_M[laser_id]
+    laser_id = flat & (layout.lasers - 1)
+    dist_m = distance.ravel()[flat] * layout.distance_unit_m
+    xy = dist_m * layout.cos_el[laser_id]
+    z = dist_m * layout.sin_el[laser_id] + layout.vertical_offset_m[laser_id]
     if window is not None:
-        inside = np.flatnonzero((xy >= window.min_range_m) & (xy <= window.max_range_m)
-                                & (z >= window.z_min_m) & (z <= window.z_max_m))
+        inside = window.inside(xy, z)
         flat, laser_id = flat[inside], laser_id[inside]
         xy, z = xy[inside], z[inside]
 
@@ -203,22 +253,21 @@ def decode_packets(payloads: Sequence[bytes], checked: bool = False,
     # each firing twice (blocks 2i, 2i+1) and span half the time
     packet_index = flat // (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
     in_block = flat & (RETURNS_PER_BLOCK - 1)
-    az_diff = (block_az[:, -1].astype(np.int64) - block_az[:, 0] + 36000) % 36000
-    duration = np.where(dual, _DUAL_SPAN_S, _SINGLE_SPAN_S)
-    rate = az_diff.astype(np.float32) / duration  # (P,) hundredths of a degree per second
-    az_f = (block_az.ravel().astype(np.float32)[flat // RETURNS_PER_BLOCK]
-            + rate[packet_index] * _DT_IN_BLOCK_S[in_block])
-    az_f += np.float32(36000)
-    az_idx = np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64) - 36000
-    az_idx[az_idx >= 36000] -= 36000
-
     in_packet = flat - packet_index * (BLOCKS_PER_PACKET * RETURNS_PER_BLOCK)
     if any_dual:
         block = in_packet // RETURNS_PER_BLOCK
         timing = np.where(dual[packet_index], block // 2, block) * RETURNS_PER_BLOCK + in_block
-        time_offset = _RETURN_TIME_FLAT[timing]
     else:
-        time_offset = _RETURN_TIME_FLAT[in_packet]
+        timing = in_packet
+    az_diff = (block_az[:, -1].astype(np.int64) - block_az[:, 0] + 36000) % 36000
+    duration = np.where(dual, layout.dual_span_s, layout.single_span_s)
+    rate = az_diff.astype(np.float32) / duration  # (P,) hundredths of a degree per second
+    az_f = (block_az.ravel().astype(np.float32)[flat // RETURNS_PER_BLOCK]
+            + rate[packet_index] * layout.dt_in_block_s[timing])
+    az_f += np.float32(36000)
+    az_idx = np.floor(az_f.astype(np.float64) + 0.5).astype(np.int64) - 36000
+    az_idx[az_idx >= 36000] -= 36000
+    time_offset = layout.return_time_flat[timing]
     points = np.empty((flat.size, 4))
     points[:, 0] = xy * _COS_AZ[az_idx]
     points[:, 1] = -xy * _SIN_AZ[az_idx]
@@ -227,7 +276,7 @@ def decode_packets(payloads: Sequence[bytes], checked: bool = False,
     return DecodedPackets(
         points=points,
         azimuth_deg=az_idx * 0.01,
-        rings=LASER_RING[laser_id],
+        rings=layout.laser_ring[laser_id],
         time_offset_s=time_offset,
         packet_index=packet_index,
         returns=returns,
@@ -264,12 +313,18 @@ class DeviceClock:
     kernel's backlog in a burst): they keep the offset, and so the times they were made at,
     unless every packet stays that late for ``late_persist_s`` of arrival time, which is the
     device's clock having jumped back (then the offset is reset). The hour wrap of the device
-    time is unwrapped.
+    time is unwrapped (``hour_wrap=False``: stamps that never wrap, an Ouster's).
+
+    ``packet_duration_s`` is the time from a packet's stamp to its sending (default the
+    VLP-16's :data:`PACKET_DURATION_S`; another model's layout has its own).
     """
 
     def __init__(self, drift_ppm: float = 100.0, reset_s: float = 0.5,
-                 late_persist_s: float = 1.0) -> None:
+                 late_persist_s: float = 1.0, packet_duration_s: float = PACKET_DURATION_S,
+                 hour_wrap: bool = True) -> None:
         self.drift = drift_ppm * 1e-6
+        self.packet_duration_s = packet_duration_s
+        self.hour_wrap = hour_wrap
         self.reset_s = reset_s
         self.late_persist_s = late_persist_s
         self.offset_s: float | None = None
@@ -278,14 +333,15 @@ class DeviceClock:
         self._late_since_s: float | None = None
         """Arrival time (s) of the first of the packets late by more than ``reset_s`` in a row."""
 
-    def update(self, arrival_s: float, device_us: int) -> float:
+    def update(self, arrival_s: float, device_us: float) -> float:
         """Take a packet's arrival time (Clock, s) and timestamp; return its device time (s,
         unwrapped) and update the offset."""
         device_s = device_us * 1e-6 + 3600.0 * self._hours
-        if self._last_device_s is not None and device_s < self._last_device_s - 1800.0:
+        if (self.hour_wrap and self._last_device_s is not None
+                and device_s < self._last_device_s - 1800.0):
             self._hours += 1
             device_s += 3600.0
-        cand = arrival_s - PACKET_DURATION_S - device_s
+        cand = arrival_s - self.packet_duration_s - device_s
         if self.offset_s is None or self._last_device_s is None:
             self.offset_s = cand
         elif cand > self.offset_s + self.reset_s:
@@ -314,7 +370,7 @@ class SweepAssembler:
     sweep's packets are decoded together, vectorised, when it completes.
 
     ``add(timestamp_s, payload)`` takes the packet's arrival time on the Clock, at least
-    :data:`PACKET_DURATION_S` after its first firing (the sensor sends a packet when it is
+    ``layout.packet_duration_s`` after its first firing (the sensor sends a packet when it is
     full); return times come from the packet's own timestamp mapped onto the Clock by a
     :class:`DeviceClock`, so arrival jitter does not reach them. It returns the sweeps
     completed by this packet (usually none, sometimes one).
@@ -323,7 +379,10 @@ class SweepAssembler:
     """
 
     def __init__(self, cut_azimuth_deg: float = 180.0, max_gap_s: float = 0.05,
-                 window: ReturnWindow | None = None) -> None:
+                 window: ReturnWindow | None = None,
+                 layout: VelodyneLayout = VLP16_LAYOUT) -> None:
+        self.layout = layout
+        """The model whose packets these are (default VLP-16)."""
         self.cut_hundredths = int(round(cut_azimuth_deg * 100.0)) % 36000
         self.max_gap_s = max_gap_s
         self.window = window
@@ -336,7 +395,7 @@ class SweepAssembler:
         self._last_rel: int | None = None
         self._last_stamp: float | None = None
         self.sweeps = 0
-        self.clock = DeviceClock()
+        self.clock = DeviceClock(packet_duration_s=layout.packet_duration_s)
 
     def add(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
         """Add one data packet; return the sweeps it completes."""
@@ -382,7 +441,7 @@ class SweepAssembler:
         self._payloads, self._stamps = [], []
         if not payloads:
             return []
-        dec = decode_packets(payloads, checked=True, window=self.window)
+        dec = decode_packets(payloads, checked=True, window=self.window, layout=self.layout)
         t0 = self.clock.to_clock(np.asarray(stamps, dtype=np.float64))
         times = t0[dec.packet_index] + dec.time_offset_s
         points, rings = dec.points, dec.rings
@@ -418,7 +477,7 @@ class SweepAssembler:
             return (float(times.min()), float(times.max())) if times.size else None
         ends = [times]
         for i in {0, len(payloads) - 1}:
-            d = decode_packets([payloads[i]], checked=True)
+            d = decode_packets([payloads[i]], checked=True, layout=self.layout)
             t = t0[i] + d.time_offset_s
             rel = self._rel_of(d.azimuth_deg)
             inside = np.ones(t.size, dtype=bool)

@@ -1,9 +1,12 @@
 """Which Velodyne sends these packets: the factory bytes and the packet timing, per packet.
 
-The decoder (:mod:`sensors.velodyne`) turns returns into points with the VLP-16's laser angles
-and firing times. Another sensor's packets have the same 1206-byte layout but other angles and
-timing, so decoding them as a VLP-16 would give plausible-looking but wrong points. This module
-decides, packet by packet, whether a (well-formed) data packet comes from a VLP-16.
+The decoder (:mod:`sensors.velodyne`) turns returns into points with the configured model's
+laser angles and firing times (``lidar.model``: the VLP-16 or the HDL-32E). Another sensor's
+packets have the same 1206-byte layout but other angles and timing, so decoding them as the
+configured model would give plausible-looking but wrong points. This module decides, packet by
+packet, whether a (well-formed) data packet comes from the configured model (the rules below
+are written for the default, the VLP-16; for the HDL-32E the same evidence is read the other
+way: 0x21 is accepted unless the timing says another model, 0x22 only with HDL-32E timing).
 
 Evidence (Velodyne user manuals):
 
@@ -59,6 +62,10 @@ PRODUCT_IDS = {0x21: "HDL-32E", 0x22: "VLP-16", 0x24: "Puck Hi-Res", 0x28: "VLP-
 RETURN_MODES = (RETURN_MODE_STRONGEST, RETURN_MODE_LAST, RETURN_MODE_DUAL)
 
 VLP16 = "VLP-16"
+HDL32E = "HDL-32E"
+ID_MODEL = {PRODUCT_VLP16: VLP16, PRODUCT_HDL32E: HDL32E}
+"""The product ids whose packets can be told apart by their timing, and the model each names
+when the timing is not known."""
 PACKET_PERIOD_US = {
     VLP16: 1327.104,
     "HDL-32E": 552.96,
@@ -79,13 +86,14 @@ LOG_EVERY = 1000
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
-    """What one packet is: ``model`` (``"VLP-16"`` when accepted) and ``why``."""
+    """What one packet is: ``model`` (``"VLP-16"``, ``"HDL-32E"``, ...) and ``why``."""
 
     model: str
     why: str
 
     @property
     def accepted(self) -> bool:
+        """Whether it is a VLP-16's (:meth:`ModelGuard.accepts` for another expected model)."""
         return self.model == VLP16
 
 
@@ -124,15 +132,21 @@ def timing_model(interval_us: int, mode: int) -> str | None:
 
 
 class ModelGuard(Generic[T]):
-    """Per packet stream: which packets are a VLP-16's (see the module docstring).
+    """Per packet stream: which packets are the ``expected`` model's (default ``"VLP-16"``, or
+    ``"HDL-32E"``; see the module docstring).
 
     :meth:`admit` takes a well-formed data packet (``check_packet`` passed) with any item that
-    travels with it (its arrival time, ...) and returns the items now known to be VLP-16
-    packets, in arrival order; the rest are counted in :attr:`refused` by model.
+    travels with it (its arrival time, ...) and returns the items now known to be packets of
+    the expected model, in arrival order; the rest are counted in :attr:`refused` by model.
     """
 
-    def __init__(self, source: str = "lidar") -> None:
+    def __init__(self, source: str = "lidar", expected: str = VLP16) -> None:
+        if expected not in ID_MODEL.values():
+            raise ValueError(f"ModelGuard: cannot tell {expected!r} packets; only "
+                             f"{', '.join(sorted(ID_MODEL.values()))}")
         self.source = source
+        self.expected = expected
+        """The model whose packets are decoded."""
         self.refused: Counter[str] = Counter()
         """Packets refused, by model (``"HDL-32E"``, ``"unknown id 0x00"``, ...)."""
         self.refused_count = 0
@@ -183,27 +197,32 @@ class ModelGuard(Generic[T]):
         if verdict is None:
             self._held = (item, payload)  # no timing yet: wait for the next packet
             return out
-        if verdict.accepted:
+        if self.accepts(verdict):
             return [*out, item]
         self._refuse(verdict)
         return out
+
+    def accepts(self, verdict: Verdict) -> bool:
+        """Whether ``verdict`` names the expected model."""
+        return verdict.model == self.expected
 
     def flush(self) -> list[T]:
         """End of the stream: the held packet, decided by the stream's verdict or its id."""
         return self._release(self.verdict)
 
     def _release(self, verdict: Verdict | None) -> list[T]:
-        """Decide the held packet with ``verdict``; None (its timing was never told): by its id,
-        a VLP-16's accepted, an HDL-32E's refused."""
+        """Decide the held packet with ``verdict``; None (its timing was never told): by its id
+        (0x22 a VLP-16's, 0x21 an HDL-32E's), accepted when that is the expected model."""
         held, self._held = self._held, None
         if held is None:
             return []
-        if verdict is None and held[1][1205] == PRODUCT_VLP16:
+        if verdict is None:
+            product = held[1][1205]
+            verdict = Verdict(ID_MODEL[product], f"its product id is 0x{product:02X} and its "
+                                                 "packet timing could not be measured")
+        if self.accepts(verdict):
             return [held[0]]
-        if verdict is not None and verdict.accepted:
-            return [held[0]]
-        self._refuse(verdict or Verdict(
-            "HDL-32E", "its product id is 0x21 and its packet timing could not be measured"))
+        self._refuse(verdict)
         return []
 
     def _refuse(self, verdict: Verdict) -> None:
@@ -211,6 +230,7 @@ class ModelGuard(Generic[T]):
         self.refused_count += 1
         n = self.refused[verdict.model]
         if n == 1 or n % LOG_EVERY == 0:
-            log.warning("%s: refusing packets from a Velodyne %s (%s): only a VLP-16 is "
-                        "decoded, another sensor's data is never turned into points with VLP-16 "
-                        "angles (%d refused so far)", self.source, verdict.model, verdict.why, n)
+            log.warning("%s: refusing packets from a Velodyne %s (%s): only a %s is decoded "
+                        "(lidar.model), another sensor's data is never turned into points with "
+                        "%s angles (%d refused so far)", self.source, verdict.model, verdict.why,
+                        self.expected, self.expected, n)
