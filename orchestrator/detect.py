@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.car import CarConfig
-from common.errors import FsdError
+from common.errors import DecodeError, FsdError
 from common.messages import ConeSize
 from orchestrator.config import AppConfig
 from orchestrator.progress import Progress
@@ -107,14 +107,11 @@ def _scene_sweeps(scene: Scene, skipped: list[str], summary: dict[str, Any]
 
 def _pcap_sweeps(source: Path, model: LidarModel, meta: str | None,
                  summary: dict[str, Any]) -> Iterator[Sweep]:
-    try:
-        from sensors.decode_lidar import iter_pcap_sweeps  # type: ignore[attr-defined]
-    except ImportError as exc:
-        raise FsdError(f"{source}: decoding {model.name} captures is not available ({exc})"
-                       ) from None
+    from sensors.decode_lidar import iter_pcap_sweeps
+
     summary["has_labels"] = False
-    for index, sweep in enumerate(iter_pcap_sweeps(source, model.name, meta)):
-        points, rings = sweep[0], sweep[1]
+    for index, (points, rings, _times, _end) in enumerate(
+            iter_pcap_sweeps(source, model.name, meta)):
         yield Sweep(f"{index:07d}", np.asarray(points, dtype=np.float64), rings, None)
 
 
@@ -147,7 +144,7 @@ def run_detect(args: argparse.Namespace, config: AppConfig) -> dict[str, Any]:
                        "capture")
     try:
         first = next(sweeps)
-    except PointCloudError as exc:
+    except (PointCloudError, DecodeError) as exc:
         raise FsdError(str(exc)) from None
     except StopIteration:
         raise FsdError(f"{source}: no readable point cloud in it") from None

@@ -220,8 +220,13 @@ class ConeDetector:
             & (reachable_small < cfg.min_layers))
         height_ok = (top < cfg.large_height_m + cfg.height_tolerance_m) & (top >= cfg.min_top_m)
         final = ~clustered & layer_ok & (npts >= cfg.min_points) & height_ok
+        # the neighbourhood checks, on the few candidates left
         if cfg.tall_clearance_m > 0.0 and final.any():
-            final &= ~self._near_tall(points, z_ground, cx, cy)
+            left = np.flatnonzero(final)
+            final[left[self._near_tall(points, z_ground, cx[left], cy[left])]] = False
+        if cfg.clear_outer_m > 0.0 and final.any():
+            left = np.flatnonzero(final)
+            final[left[self._cluttered(points, z_ground, cx[left], cy[left])]] = False
         # size: a top above small_height_m is a large cone; else compare per-ring counts
         err_small = (((ring_hits - exp_small) ** 2) / (exp_small + 1.0)).sum(axis=1)
         err_large = (((ring_hits - exp_large) ** 2) / (exp_large + 1.0)).sum(axis=1)
@@ -279,23 +284,25 @@ class ConeDetector:
         """Which preliminary cones (K,) have a return too high for a cone (a leg, a pole, a
         barrier) within ``tall_clearance_m`` of their centre (``cx``, ``cy``, sensor frame)."""
         cfg = self.cfg
-        tall = np.flatnonzero((z_ground >= cfg.max_point_height_m)
-                              & (z_ground < cfg.max_point_height_m + 2.0))
-        near = np.zeros(cx.size, dtype=bool)
-        if tall.size == 0 or cx.size == 0:
-            return near
-        tx, ty = points[tall, 0], points[tall, 1]
-        # only the tall returns in the candidates' bounding box, then every pair
-        c = cfg.tall_clearance_m
-        box = (tx > cx.min() - c) & (tx < cx.max() + c) & (ty > cy.min() - c) & (ty < cy.max() + c)
-        tx, ty = tx[box], ty[box]
-        if tx.size == 0:
-            return near
-        for start in range(0, tx.size, 4096):  # bounded memory for a sweep full of walls
-            dx = cx[:, None] - tx[None, start:start + 4096]
-            dy = cy[:, None] - ty[None, start:start + 4096]
-            near |= ((dx * dx + dy * dy) < c * c).any(axis=1)
-        return near
+        tall = ((z_ground >= cfg.max_point_height_m)
+                & (z_ground < cfg.max_point_height_m + 2.0))
+        counts, _ = _ring_stats(points[tall, 0], points[tall, 1], z_ground[tall], cx, cy, 0.0,
+                                cfg.tall_clearance_m)
+        return counts > 0
+
+    def _cluttered(self, points: NDArray[np.float64], z_ground: NDArray[np.float64],
+                   cx: NDArray[np.float64], cy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Which preliminary cones (K,) do not stand on open ground, judged by the returns in
+        the ring ``clear_inner_m`` .. ``clear_outer_m`` round them: more than
+        ``clear_max_returns`` above the ground (a bush, a kerb, a wall's foot), or none lower
+        than ``ground_max_residual_m`` above the fitted ground (the ground there is not where
+        the fit puts it, an embankment, so the candidate's height means nothing)."""
+        cfg = self.cfg
+        below = z_ground < cfg.max_point_height_m
+        counts, lowest = _ring_stats(points[below, 0], points[below, 1], z_ground[below], cx, cy,
+                                     cfg.clear_inner_m, cfg.clear_outer_m,
+                                     above_m=cfg.ground_clearance_m)
+        return (counts > cfg.clear_max_returns) | (lowest > cfg.ground_max_residual_m)
 
     def _expected_hits(self, rng: NDArray[np.float64], size: ConeSize,
                        az_step_rad: float) -> NDArray[np.float64]:
@@ -361,3 +368,43 @@ def _neighbour_counts(x: NDArray[np.float64], y: NDArray[np.float64], radius_m: 
     dx = x[:, None] - x[None, :]
     dy = y[:, None] - y[None, :]
     return ((dx * dx + dy * dy) < radius_m**2).sum(axis=1).astype(np.int64)
+
+
+def _ring_stats(px: NDArray[np.float64], py: NDArray[np.float64], pz: NDArray[np.float64],
+                cx: NDArray[np.float64], cy: NDArray[np.float64], inner_m: float, outer_m: float,
+                above_m: float = -math.inf
+                ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Of the points (``px``, ``py``, heights ``pz``) (M,) at ``inner_m`` <= d < ``outer_m``
+    from each centre (``cx``, ``cy``) (K,): how many are higher than ``above_m``, and the
+    lowest height (-inf where there is none). K is a few dozen: the points are first cut to the
+    grid cells (of side ``outer_m``) next to a centre's, then paired with every centre."""
+    counts = np.zeros(cx.size, dtype=np.int64)
+    lowest = np.full(cx.size, -np.inf)
+    if px.size == 0 or cx.size == 0 or outer_m <= 0.0:
+        return counts, lowest
+    x0, y0 = cx.min() - 2.0 * outer_m, cy.min() - 2.0 * outer_m
+    nx = int((cx.max() - x0) / outer_m) + 3
+    ny = int((cy.max() - y0) / outer_m) + 3
+    ix = np.floor((px - x0) / outer_m).astype(np.int64)
+    iy = np.floor((py - y0) / outer_m).astype(np.int64)
+    inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    near_cell = np.zeros((nx, ny), dtype=bool)
+    ccx = np.floor((cx - x0) / outer_m).astype(np.int64)
+    ccy = np.floor((cy - y0) / outer_m).astype(np.int64)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            near_cell[ccx + dx, ccy + dy] = True
+    pick = np.flatnonzero(inside)
+    pick = pick[near_cell[ix[pick], iy[pick]]]
+    px, py, pz = px[pick], py[pick], pz[pick]
+    low = np.full(cx.size, np.inf)
+    for start in range(0, px.size, 4096):  # bounded memory for a sweep full of walls
+        chunk = slice(start, start + 4096)
+        ddx = cx[:, None] - px[None, chunk]
+        ddy = cy[:, None] - py[None, chunk]
+        d2 = ddx * ddx + ddy * ddy
+        ring = (d2 >= inner_m * inner_m) & (d2 < outer_m * outer_m)
+        counts += (ring & (pz[None, chunk] > above_m)).sum(axis=1)
+        low = np.minimum(low, np.where(ring, pz[None, chunk], np.inf).min(axis=1))
+    lowest = np.where(np.isfinite(low), low, -np.inf)
+    return counts, lowest

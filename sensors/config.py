@@ -98,6 +98,12 @@ class DetectorConfig:
     tall_clearance_m: float = 0.0
     """A preliminary cone with a return higher than ``max_point_height_m`` (a leg, a pole, a
     barrier) within this horizontal distance of its centre is not a cone (m); 0: no check."""
+    clear_inner_m: float = 0.3
+    clear_outer_m: float = 0.0
+    clear_max_returns: int = 2
+    """A preliminary cone with more than ``clear_max_returns`` returns above the ground at
+    ``clear_inner_m`` .. ``clear_outer_m`` from its centre stands in clutter (a bush, a kerb,
+    a wall's foot), not on open ground as a cone does (m); ``clear_outer_m`` 0: no check."""
     ground: str = "flat"
     """``flat``: the ground is the plane ``car.lidar_z_m`` below the sensor (the simulator's
     world); ``estimated``: a smooth surface fitted to the sweep's lowest returns, for real
@@ -156,13 +162,13 @@ class CameraConfig:
 def _real_cloud_detector() -> DetectorConfig:
     """The detector's settings for real point clouds (``detect``): the ground estimated, a
     return on its own may be a cone's surface (a 40-beam sensor hits a cone at 10 m once per
-    beam), and clutter rejected by shape. With many beams a cone's top is found, so a top
+    beam), and clutter rejected by shape (tall neighbours, returns round it). With many beams a cone's top is found, so a top
     above 0.415 m (halfway between a small cone's 0.325 m and a large one's 0.505 m) makes a
     large cone."""
     return DetectorConfig(ground="estimated", min_surface_points=1, min_layers=1, min_points=2,
                           min_top_m=0.12, tall_clearance_m=0.5, centre_push_fraction=0.0,
                           fov_half_deg=180.0, max_range_m=13.0, small_height_m=0.415,
-                          size_from_ring_counts=False)
+                          size_from_ring_counts=False, clear_outer_m=0.6)
 
 
 @dataclass(slots=True)
