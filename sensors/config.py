@@ -162,9 +162,9 @@ class CameraConfig:
 def _real_cloud_detector() -> DetectorConfig:
     """The detector's settings for real point clouds (``detect``): the ground estimated, a
     return on its own may be a cone's surface (a 40-beam sensor hits a cone at 10 m once per
-    beam), and clutter rejected by shape (tall neighbours, returns round it). With many beams a cone's top is found, so a top
-    above 0.415 m (halfway between a small cone's 0.325 m and a large one's 0.505 m) makes a
-    large cone."""
+    beam), and clutter rejected by shape (tall neighbours, returns round it). With many beams
+    a cone's top is found, so a top above 0.415 m (halfway between a small cone's 0.325 m and a
+    large one's 0.505 m) makes a large cone."""
     return DetectorConfig(ground="estimated", min_surface_points=1, min_layers=1, min_points=2,
                           min_top_m=0.12, tall_clearance_m=0.5, centre_push_fraction=0.0,
                           fov_half_deg=180.0, max_range_m=13.0, small_height_m=0.415,
