@@ -93,15 +93,13 @@ def open_model(name: str, meta_file: str | None = None) -> tuple[LidarModel, Ous
 def foreign_model(payload: bytes, ouster: bool) -> str | None:
     """The sensor a datagram that is not the configured model's comes from, if it is one we
     know: a Velodyne data packet (1206 bytes, every block flagged 0xFFEE; named by its product
-    id) when ``ouster`` is configured, a legacy Ouster lidar packet (told by its size) when a
-    Velodyne is; None when it is neither (garbage, a truncated packet)."""
-    if ouster:
-        if (len(payload) == PACKET_SIZE
-                and payload[0:1200:100] == b"\xff" * BLOCKS_PER_PACKET
-                and payload[1:1200:100] == b"\xee" * BLOCKS_PER_PACKET):
-            product = payload[1205]
-            return "Velodyne " + PRODUCT_IDS.get(product, f"(product id 0x{product:02X})")
-        return None
+    id) when an Ouster (``ouster``) is configured, a legacy Ouster lidar packet (told by its
+    size, of any OS1's beam count); None when it is neither (garbage, a truncated packet)."""
+    if (ouster and len(payload) == PACKET_SIZE
+            and payload[0:1200:100] == b"\xff" * BLOCKS_PER_PACKET
+            and payload[1:1200:100] == b"\xee" * BLOCKS_PER_PACKET):
+        product = payload[1205]
+        return "Velodyne " + PRODUCT_IDS.get(product, f"(product id 0x{product:02X})")
     beams = legacy_beams_of_size(len(payload))
     return None if beams is None else f"Ouster OS1 ({beams} beams, legacy packets)"
 
@@ -198,9 +196,6 @@ class SweepSource:
                      payload: bytes) -> list[LidarPoints]:
         if len(payload) != assembler.geometry.meta.packet_size:
             foreign = foreign_model(payload, ouster=True)
-            if foreign is None:
-                beams = legacy_beams_of_size(len(payload))
-                foreign = None if beams is None else f"Ouster OS1 ({beams} beams)"
             if foreign is not None:
                 self._refuse_foreign(foreign, f"a datagram of {len(payload)} bytes")
                 return []

@@ -1,4 +1,5 @@
-"""Only a VLP-16's packets are decoded: the model from the factory bytes and the packet timing.
+"""Only the configured Velodyne's packets are decoded: the model from the factory bytes and the
+packet timing; and the beam tables of sensors/lidar_models.py against velodyne-decoder's.
 
 The shared capture (product id 0x21 with a VLP-16's 1327 us between packets: early VLP-16
 firmware) must decode as today; copies of it with another model's id and timing written into
@@ -200,3 +201,39 @@ def test_simulated_packets_with_losses_are_all_decoded() -> None:
     parser.flush()
     assert parser.rejects == {}
     assert parser.counts["packets"] == fed - sum(1 for k in range(fed) if k % 7 == 3)
+
+
+def _velodyne_decoder_calibration(model: str, bundled: bool) -> list[dict[str, float]]:
+    """The lasers of velodyne-decoder's calibration of ``model`` (``"HDL32E"``, ``"VLP32C"``):
+    the one its decoder uses (``Calibration.default_calibs``) or the bundled YAML file."""
+    import velodyne_decoder as vd
+    import yaml
+    if bundled:
+        name = {"HDL32E": "HDL-32E.yml", "VLP32C": "VLP-32C.yml"}[model]
+        calibration = vd.calibrations.get_bundled_calibration(name)
+    else:
+        calibration = vd.Calibration.default_calibs[getattr(vd.Model, model)]
+    lasers: list[dict[str, float]] = yaml.safe_load(calibration.to_string())["lasers"]
+    return sorted(lasers, key=lambda laser: laser["laser_id"])
+
+
+@pytest.mark.parametrize("bundled", [False, True])
+@pytest.mark.parametrize(("vd_model", "ours"), [("HDL32E", "hdl32e"), ("VLP32C", "vlp32c")])
+def test_beam_tables_match_velodyne_decoders_calibrations(vd_model: str, ours: str,
+                                                          bundled: bool) -> None:
+    from sensors.lidar_models import LIDAR_MODELS
+    lasers = _velodyne_decoder_calibration(vd_model, bundled)
+    theirs = np.degrees([laser["vert_correction"] for laser in lasers])
+    table = np.asarray(LIDAR_MODELS[ours].beam_elevation_deg)
+    assert table.shape == theirs.shape == (32,)
+    np.testing.assert_allclose(table, theirs, atol=1e-4)  # their radians are float32
+    # the table is the manuals' to the hundredth (HDL-32E) or thousandth (VLP-32C): exact
+    decimals = 2 if ours == "hdl32e" else 3
+    np.testing.assert_array_equal(table, np.round(theirs, decimals))
+
+
+def test_hdl32e_vertical_offsets_match_velodyne_decoder() -> None:
+    from sensors.hdl32e import VERTICAL_OFFSET_M
+    lasers = _velodyne_decoder_calibration("HDL32E", bundled=False)
+    np.testing.assert_allclose(VERTICAL_OFFSET_M,
+                               [laser["vert_offset_correction"] for laser in lasers], atol=1e-8)

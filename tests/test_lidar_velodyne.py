@@ -19,6 +19,7 @@ from sensors.velodyne import (
     decode_packets,
 )
 from support.shared_data import shared_path
+from support.velodyne_reference import velodyne_decoder_points
 
 ROOT = Path(__file__).resolve().parents[1]
 PCAP = shared_path("lidar", "velodyne_vlp16.pcap")
@@ -37,19 +38,7 @@ def _reference_points() -> np.ndarray:
     0.2 deg per firing, 2 firings per block); velodyne-decoder refuses a VLP-16 model with that
     id, so the reference is given the packets with the id byte set to 0x22 (VLP-16).
     """
-    import velodyne_decoder as vd
-    decoder = vd.StreamDecoder(vd.Config(model=vd.Model.VLP16, min_range=0.0, max_range=1000.0))
-    clouds = []
-    for stamp, payload in _data_packets():
-        patched = bytearray(payload)
-        patched[1205] = 0x22
-        result = decoder.decode(stamp, bytes(patched))
-        if result is not None:
-            clouds.append(result[1])
-    result = decoder.finish()
-    if result is not None:
-        clouds.append(result[1])
-    return np.concatenate(clouds).astype(np.float64)
+    return velodyne_decoder_points(_data_packets(), "VLP16", product_id=0x22)
 
 
 def test_decode_pcap_points_match_velodyne_decoder(tmp_path: Path) -> None:
