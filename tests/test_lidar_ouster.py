@@ -204,3 +204,35 @@ def test_truncated_garbage_and_other_sensors_packets_are_counted(
     final = list(decode_pcap(str(PCAP)))[-1]
     assert final["rejects"] == {"wrong_model": 100}
     assert final["refused_models"] == {"Ouster OS1 (64 beams, legacy packets)": 100}
+
+
+def test_live_receiver_decodes_the_ouster_over_udp() -> None:
+    """The car's LiDAR receiver built from the config (lidar.model os1-64) on loopback."""
+    import socket
+    import time
+
+    from common.car import CarConfig
+    from common.clock import RealClock
+    from sensors.udp_receiver import lidar_receiver
+
+    clock = RealClock()
+    config = LidarConfig(model="os1-64", meta_file=str(META))
+    receiver = lidar_receiver(clock, config, CarConfig(), "127.0.0.1", 0, read_timeout_s=0.02)
+    packets = [p for _, p in _packets()]
+    with receiver:
+        assert receiver.wait_connected(5.0) and receiver.bound_address is not None
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            for k, payload in enumerate([*packets, packets[0][:100]]):
+                sock.sendto(payload, receiver.bound_address)
+                if k % 10 == 9:
+                    time.sleep(0.005)  # 10 packets a 5 ms: twice the sensor's rate
+        deadline = time.monotonic() + 5.0
+        while receiver.intake.raw_count < len(packets) + 1 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        _, readings = receiver.intake.take()
+        parser: Any = receiver.intake.parser
+        assert parser.counts["packets"] == len(packets)
+        assert dict(parser.rejects) == {"bad_length": 1}
+        assert len(readings) == 2  # frames 12072 (partial) and 12073 completed
+        assert parser.counts["points"] == 12783 + 58797
+        assert receiver.is_alive()
