@@ -152,9 +152,12 @@ class UkfConfig:
     receiver sends no GST.)"""
     gnss_receiver_sigma_scale: float = 1.0
     gnss_receiver_sigma_floor_m: float = 0.05
-    gnss_latency_s: float = 0.0
+    gnss_latency_s: float | None = None
     """The receiver's latency (s): a fix was measured this long before its time stamp (with
-    ``gnss_time_from_utc``, before its UTC time on the receiving clock), and is applied there."""
+    ``gnss_time_from_utc``, before its UTC time on the receiving clock), and is applied there.
+    Not set (the default): ``replay`` of a recording without commands (an imported or recorded
+    drive, localisation only) estimates it from the log's own fixes and wheels
+    (:mod:`mapper.gnss_latency`); elsewhere (simulation, a live drive) it is 0. Set, it wins."""
     gnss_time_from_utc: bool = False
     """Time a fix by its UTC time of day, put on the receiving clock by the smallest
     (receive - UTC) offset seen so far (the arrival jitter of the serial link removed), instead

@@ -30,8 +30,8 @@ _DAY_S = 86400.0
 class GnssTiming:
     """Retimes fixes to when they were measured (see the module docstring)."""
 
-    def __init__(self, latency_s: float, from_utc: bool) -> None:
-        self.latency_s = latency_s
+    def __init__(self, latency_s: float | None, from_utc: bool) -> None:
+        self.latency_s = 0.0 if latency_s is None else latency_s  # None: not configured
         self.from_utc = from_utc
         self.offset_s: float | None = None
         """Receive time minus UTC time of day (s), the smallest seen (with the creep)."""

@@ -15,12 +15,17 @@ Writes into the out folder:
   there, clockwise from north in [0, 360);
 - ``summary.json``: position and course RMSE against the truth (horizontal, after the first
   ``EVAL_SKIP_S`` of the log), the raw fixes' RMSE at their own times, the position NEES, and
-  inside a GNSS outage recorded by ``import --drop-gnss`` the worst error there;
+  inside a GNSS outage recorded by ``import --drop-gnss`` the worst error there; the GNSS
+  latency used (``gnss_latency_s``) and where it came from (``gnss_latency_source``:
+  ``configured`` when ``mapper.ukf.gnss_latency_s`` is set, else ``estimated`` from the log
+  itself in a first pass over it, :mod:`mapper.gnss_latency`, with ``gnss_latency_sigma_s``
+  and the estimate's details, or ``unavailable`` (0 used) when the drive cannot tell);
 - ``localisation_map.png``, ``localisation_error.png``.
 """
 
 from __future__ import annotations
 
+import copy
 import csv
 import json
 import logging
@@ -35,7 +40,9 @@ import numpy as np
 from common.clock import SimClock
 from common.conventions import LocalTangentFrame, enu_yaw_to_compass_deg
 from common.errors import RecordingError
-from common.messages import CanFrame, GpsFix, GroundTruth, RawBytes
+from common.messages import CanFrame, GpsFix, GroundTruth, ImuSample, RawBytes, WheelSpeeds
+from mapper.gnss_latency import LatencyEstimate, estimate_gnss_latency
+from mapper.gnss_timing import GnssTiming
 from mapper.localisation_eval import Track, errors, position_nees, rms
 from mapper.mapper import Mapper
 from orchestrator.config import AppConfig
@@ -88,10 +95,84 @@ def _messages(path: Path, rate: float | None) -> Iterator[tuple[float, str, obje
     yield from Player(path, rate=rate, topics=[*RAW_TOPICS, TRUTH_POSE])
 
 
+def _decoded_readings(config: AppConfig, path: Path) -> Iterator[object]:
+    """Every reading the Sensor Manager decodes from the recording's raw units, in order."""
+    clock = SimClock()
+    sensors = make_sensors(config, clock, keep_raw=False)
+    batch: list[RawBytes | CanFrame] = []
+    for log_time_s, _topic, message in Player(path, topics=list(RAW_TOPICS)):
+        if isinstance(message, (RawBytes, CanFrame)):
+            batch.append(message)
+        if len(batch) >= 256:
+            clock.set(log_time_s)
+            sensors.ingest(batch)
+            batch.clear()
+            yield from sensors.take().readings
+    if batch:
+        sensors.ingest(batch)
+    yield from sensors.take().readings
+
+
+def estimate_latency_from_log(config: AppConfig, path: Path) -> LatencyEstimate | None:
+    """The GNSS latency from the recording's own fixes (timed as the Mapper times them, with
+    no latency), rear wheel speeds and gyro (:func:`mapper.gnss_latency.estimate_gnss_latency`);
+    None when the drive cannot tell."""
+    ukf = config.mapper.ukf
+    timing = GnssTiming(0.0, ukf.gnss_time_from_utc)
+    fix_t: list[float] = []
+    fix_ll: list[tuple[float, float]] = []
+    odo: list[tuple[float, float]] = []
+    gyro: list[tuple[float, float]] = []
+    for r in _decoded_readings(config, path):
+        if isinstance(r, GpsFix):
+            fix = timing.retime(r)
+            fix_t.append(fix.timestamp_s)
+            fix_ll.append((fix.lat_deg, fix.lon_deg))
+        elif isinstance(r, WheelSpeeds):
+            odo.append((r.timestamp_s, r.mean_rear_mps))
+        elif isinstance(r, ImuSample):
+            gyro.append((r.timestamp_s, r.gyro_z_radps))
+    if len(fix_t) < 2 or len(odo) < 2:
+        return None
+    ll = np.asarray(fix_ll)
+    frame = LocalTangentFrame(float(ll[0, 0]), float(ll[0, 1]), 0.0)
+    e, n, _ = frame.to_enu(ll[:, 0], ll[:, 1], 0.0)
+    o = np.asarray(odo)
+    order = np.argsort(o[:, 0], kind="stable")
+    g = np.asarray(gyro).reshape(-1, 2)
+    g = g[np.argsort(g[:, 0], kind="stable")]
+    return estimate_gnss_latency(np.asarray(fix_t), np.stack([e, n], axis=1), o[order, 0],
+                                 o[order, 1], g[:, 0] if len(g) > 1 else None,
+                                 g[:, 1] if len(g) > 1 else None)
+
+
+def _gnss_latency(config: AppConfig, path: Path) -> tuple[AppConfig, dict[str, Any]]:
+    """The configuration to localise with and the summary's GNSS latency entries: the
+    configured latency when set, else the one estimated from the log (0 when it cannot be)."""
+    configured = config.mapper.ukf.gnss_latency_s
+    if configured is not None:
+        return config, {"gnss_latency_s": configured, "gnss_latency_source": "configured"}
+    estimate = estimate_latency_from_log(config, path)
+    config = copy.deepcopy(config)
+    if estimate is None:
+        log.warning("%s: the GNSS latency cannot be estimated from this drive (and none is "
+                    "configured in mapper.ukf.gnss_latency_s): 0 s used", path)
+        config.mapper.ukf.gnss_latency_s = 0.0
+        return config, {"gnss_latency_s": 0.0, "gnss_latency_source": "unavailable"}
+    config.mapper.ukf.gnss_latency_s = estimate.latency_s
+    log.info("GNSS latency estimated from the log: %.3f +- %.3f s", estimate.latency_s,
+             estimate.sigma_s)
+    return config, {"gnss_latency_s": round(estimate.latency_s, 4),
+                    "gnss_latency_source": "estimated",
+                    "gnss_latency_sigma_s": round(estimate.sigma_s, 4),
+                    "gnss_latency_estimate": estimate.as_dict()}
+
+
 def run_localisation(config: AppConfig, path: Path, out_dir: Path | None,
                      rate: float | None = None) -> dict[str, Any]:
     """Localise through ``path`` (see the module docstring); returns the summary."""
     metadata = Player(path).metadata.get("fsd", {})
+    config, latency = _gnss_latency(config, path)
     dt_s = 1.0 / config.run.control_rate_hz
     clock = SimClock()
     sensors = make_sensors(config, clock, keep_raw=False)
@@ -152,6 +233,7 @@ def run_localisation(config: AppConfig, path: Path, out_dir: Path | None,
         "ticks": ticks,
         "timing": {"wall_time_s": round(wall_s, 3),
                    "realtime_factor": round(ticks * dt_s / max(wall_s, 1e-9), 2)},
+        **latency,
         "mapper_stats": mapper.stats,
     }
     truth_origin = _truth_origin(metadata)

@@ -22,6 +22,10 @@ gravity (the wheels' mean acceleration removed), yaw from the longitudinal and l
 forces against the wheels' acceleration and the centripetal ``v w``. The wheel speed scale is
 the receiver's speed over the wheels'. These calibrations use the car's own sensors only, never
 the reference. They go with the car's geometry into the configuration the recording carries.
+The fixes are timed by their UTC time on the boot clock (``mapper.ukf.gnss_time_from_utc``); no
+latency is written: the replay estimates it from the log's own fixes and wheels
+(:mod:`mapper.gnss_latency`), as on a team's car, where there is no reference to calibrate
+against.
 
 The GNSS receiver gives no accuracy fields here (no HDOP, no satellite count in these arrays):
 the fixes are written as NMEA GGA and RMC without them.
@@ -51,11 +55,6 @@ GRAVITY_MPS2 = 9.80665
 DEVICE_X_M = 1.2
 """The comma device (IMU and GNSS antenna) ahead of the rear axle (m): the top of the
 windscreen of a 2018 RAV4 (wheelbase 2.66 m); an estimate, not a survey."""
-GNSS_LATENCY_S = 0.06
-"""The u-blox's latency beyond its fastest delivery (s): fixes are timed by their UTC time put
-on the boot clock by the smallest arrival delay (``mapper.ukf.gnss_time_from_utc``), and were
-measured this long before that. Calibrated against comma's pose on this segment (0.04 s: 0.53
-m RMS, 0.06 s: 0.41 m, 0.08 s: 0.54 m): a property of the receiver, as a datasheet would give."""
 GNSS_POSITION_SIGMA_M = 2.0
 """The fixes' noise for the UKF (m): their error is about 0.4 m RMS but correlated over
 seconds; 2 m keeps the position NEES near its 2 degrees of freedom on this segment."""
@@ -174,7 +173,6 @@ def load(segment: Path, drop_gnss: GnssOutage | None = None) -> ImportedLog:
             "gnss_antenna_x_m": DEVICE_X_M,
             "initial_gyro_bias_sigma_radps": GYRO_BIAS_SIGMA_RADPS,
             "gnss_time_from_utc": True,
-            "gnss_latency_s": GNSS_LATENCY_S,
             "gnss_position_sigma_m": GNSS_POSITION_SIGMA_M,
             "odometry_speed_scale": scale,
             "odometry_yaw_rate_source": "steering",
