@@ -160,7 +160,7 @@ def _register_detect(subparsers: Any, common: argparse.ArgumentParser) -> None:
                         "(default: sensors.detect.lidar_model, else sensors.lidar.model)")
     parser.add_argument("--meta", metavar="JSON", default=None,
                         help="an Ouster capture's metadata file (beam angles)")
-    parser.add_argument("--frames", type=int, default=-1, metavar="N",
+    parser.add_argument("--frames", type=non_negative_int, default=None, metavar="N",
                         help="draw the first N frames to DIR/frames (default: all; 0: none)")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.set_defaults(func=_detect)

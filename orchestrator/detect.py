@@ -151,7 +151,7 @@ def run_detect(args: argparse.Namespace, config: AppConfig) -> dict[str, Any]:
 
     out.mkdir(parents=True, exist_ok=True)
     frames_dir = out / "frames"
-    if args.frames != 0:
+    if args.frames != 0:  # None: every frame
         frames_dir.mkdir(exist_ok=True)
     # one detection before timing: the first call imports scipy's k-d tree and warms caches
     detector.detect(first.points, first.rings, np.zeros(first.points.shape[0]), 0.0)
@@ -174,7 +174,7 @@ def run_detect(args: argparse.Namespace, config: AppConfig) -> dict[str, Any]:
                 totals.add(result.score)
                 strict.add(score_frame(sweep.labels[:, :2], result.cones_xyz[:, :2], window,
                                        strict=True))
-            if args.frames < 0 or drawn < args.frames:
+            if args.frames is None or drawn < args.frames:
                 _draw_frame(frames_dir / f"{sweep.frame}.png", sweep, result, detector, window)
                 drawn += 1
             progress.update(len(results), lambda: f"{len(results)} clouds")

@@ -218,7 +218,14 @@ class ConeDetector:
         layer_ok = (layers >= cfg.min_layers) | (
             (layers >= 1) & (rng > cfg.single_layer_beyond_m)
             & (reachable_small < cfg.min_layers))
+        if cfg.min_layer_fraction > 0.0:  # a dense sensor hits a real cone on most rings
+            crossing = (exp_small > 0.0).sum(axis=1)
+            layer_ok &= layers >= np.floor(cfg.min_layer_fraction * crossing)
         height_ok = (top < cfg.large_height_m + cfg.height_tolerance_m) & (top >= cfg.min_top_m)
+        if cfg.max_float_m > 0.0:  # a cone stands on the ground: its lowest return is low
+            bottom = np.full(n_cones, np.inf)
+            np.minimum.at(bottom, pcone, pz)
+            height_ok &= bottom <= self._lowest_ring_height(rng) + cfg.max_float_m
         final = ~clustered & layer_ok & (npts >= cfg.min_points) & height_ok
         # the neighbourhood checks, on the few candidates left
         if cfg.tall_clearance_m > 0.0 and final.any():
@@ -281,14 +288,15 @@ class ConeDetector:
 
     def _near_tall(self, points: NDArray[np.float64], z_ground: NDArray[np.float64],
                    cx: NDArray[np.float64], cy: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """Which preliminary cones (K,) have a return too high for a cone (a leg, a pole, a
-        barrier) within ``tall_clearance_m`` of their centre (``cx``, ``cy``, sensor frame)."""
+        """Which preliminary cones (K,) have returns too high for a cone (a leg, a pole, a
+        barrier; more than ``clear_max_returns``, so that a few raindrops do not count) within
+        ``tall_clearance_m`` of their centre (``cx``, ``cy``, sensor frame)."""
         cfg = self.cfg
         tall = ((z_ground >= cfg.max_point_height_m)
                 & (z_ground < cfg.max_point_height_m + 2.0))
         counts, _ = _ring_stats(points[tall, 0], points[tall, 1], z_ground[tall], cx, cy, 0.0,
                                 cfg.tall_clearance_m)
-        return counts > 0
+        return counts > cfg.clear_max_returns
 
     def _cluttered(self, points: NDArray[np.float64], z_ground: NDArray[np.float64],
                    cx: NDArray[np.float64], cy: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -303,6 +311,13 @@ class ConeDetector:
                                      cfg.clear_inner_m, cfg.clear_outer_m,
                                      above_m=cfg.ground_clearance_m)
         return (counts > cfg.clear_max_returns) | (lowest > cfg.ground_max_residual_m)
+
+    def _lowest_ring_height(self, rng: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Height (K,) above the ground of the lowest ring that passes over the ground
+        clearance at each range ``rng`` (K,) (m): where a cone's lowest return can be."""
+        h = self.ground.below_sensor_m + rng[:, None] * self._tan_ring[None, :]
+        h = np.where(h > self.cfg.ground_clearance_m, h, np.inf)
+        return np.asarray(h.min(axis=1))
 
     def _expected_hits(self, rng: NDArray[np.float64], size: ConeSize,
                        az_step_rad: float) -> NDArray[np.float64]:

@@ -81,6 +81,10 @@ class DetectorConfig:
     hairpins cones stand 0.7 m apart along a boundary (a community layout's 1.7 m inner ring),
     which puts three within 0.9 m; grass and bushes break into many more surfaces."""
     min_layers: int = 2
+    min_layer_fraction: float = 0.0
+    """A preliminary cone must show on at least this fraction (rounded down) of the rings that
+    cross a small cone's height at its range: rain, spray and dust show on one or two rings, a
+    cone on most of them (0: no check)."""
     single_layer_beyond_m: float = 4.0
     """Beyond this range one layer is accepted when the ring geometry allows only one (m)."""
     min_points: int = 3
@@ -95,6 +99,10 @@ class DetectorConfig:
     min_top_m: float = 0.0
     """A preliminary cone whose highest return is lower than this above the ground is a bump
     of the ground, not a cone (m)."""
+    max_float_m: float = 0.0
+    """A preliminary cone whose lowest return is higher than this above the lowest ring that
+    can hit a cone at its range floats (raindrops, spray, an overhanging branch): not a cone
+    (m); 0: no check."""
     tall_clearance_m: float = 0.0
     """A preliminary cone with a return higher than ``max_point_height_m`` (a leg, a pole, a
     barrier) within this horizontal distance of its centre is not a cone (m); 0: no check."""
@@ -168,7 +176,8 @@ def _real_cloud_detector() -> DetectorConfig:
     return DetectorConfig(ground="estimated", min_surface_points=1, min_layers=1, min_points=2,
                           min_top_m=0.12, tall_clearance_m=0.5, centre_push_fraction=0.0,
                           fov_half_deg=180.0, max_range_m=13.0, small_height_m=0.415,
-                          size_from_ring_counts=False, clear_outer_m=0.6)
+                          size_from_ring_counts=False, clear_outer_m=0.6,
+                          min_layer_fraction=0.3, max_float_m=0.15, clear_max_returns=3)
 
 
 @dataclass(slots=True)

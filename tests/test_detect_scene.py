@@ -304,3 +304,48 @@ def test_detect_writes_its_outputs(tmp_path: Path) -> None:
     assert sorted(p.name for p in (out / "frames").iterdir()) == [
         "0000023.png", "0000024.png", "0000025.png"]
     assert "0000024" in (out / "report.html").read_text()
+
+
+def _real_frame_detector() -> tuple[ConeDetector, np.ndarray]:
+    path = shared_data(*FSKITTI, ALVERCA, "points", "0000023.bin")
+    cloud = read_cloud(path)
+    config = load_config(None)
+    settings = config.sensors.detect
+    detector = ConeDetector(settings.detector, detection_car(settings),
+                            choose_model("pandar40p", config))
+    return detector, np.c_[cloud.xyz, cloud.intensity]
+
+
+def _column(x: float, y: float, bottom_m: float, top_m: float, ground_z: float,
+            radius_m: float = 0.07, step_m: float = 0.03) -> np.ndarray:
+    """Returns on the near side of a vertical column (a leg, a pole) or a floating blob."""
+    heights = np.arange(bottom_m, top_m, step_m)
+    bearing = math.atan2(y, x)
+    rows = []
+    for h in heights:
+        for a in (-0.6, 0.0, 0.6):
+            rows.append((x - radius_m * math.cos(bearing + a), y - radius_m * math.sin(bearing + a),
+                         ground_z + h, 10.0))
+    return np.array(rows)
+
+
+def test_legs_poles_and_floating_returns_are_not_cones() -> None:
+    """Added to a real frame on open ground ahead: a leg (0-0.9 m), a pole (0-1.6 m) and
+    raindrop-like blobs floating 0.3-0.45 m up give no new cone; the real cones stay."""
+    detector, points = _real_frame_detector()
+    zeros = np.zeros(len(points))
+    before = np.array([[c.x_m, c.y_m] for c in detector.detect(points, None, zeros, 0.0).cones])
+    ground_z = -detector.ground.below_sensor_m
+    spots = [(6.0, -3.0), (7.5, -4.5), (9.0, -5.5), (10.0, -3.0)]
+    for spot in spots:
+        assert np.hypot(*(before - spot).T).min() > 1.5  # open ground, no cone there
+    extra = np.vstack([_column(*spots[0], 0.02, 0.9, ground_z),
+                       _column(*spots[1], 0.02, 1.6, ground_z, radius_m=0.05),
+                       _column(*spots[2], 0.30, 0.45, ground_z, step_m=0.07),
+                       _column(*spots[3], 0.30, 0.45, ground_z, step_m=0.07)])
+    cloud = np.vstack([points, extra])
+    after = np.array([[c.x_m, c.y_m]
+                      for c in detector.detect(cloud, None, np.zeros(len(cloud)), 0.0).cones])
+    assert len(after) == len(before)
+    assert np.hypot(*(after[:, None, :] - before[None, :, :]).transpose(2, 0, 1)).min(
+        axis=1).max() < 0.05
