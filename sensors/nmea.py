@@ -15,12 +15,12 @@ Two layers, usable apart:
 
 Sentences used (any talker: GP, GN, GL, GA, GB, IN, EC, II, ...): GGA (position, quality,
 satellites, HDOP, altitude above mean sea level), RMC (status, position, speed, course), GLL
-(position, status), GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course), GSA
-(HDOP when no GGA; its fix mode) and GST (the receiver's 1-sigma latitude and longitude errors,
-m). Every other well-formed sentence (GSV, ZDA, TXT, proprietary ``$P...`` sentences, and the
-instrument sentences of a boat's or car's bus: DPT, DBT, MWV, HDG, HDT, VHW, MTW, XDR, ... from
-talkers SD, WI, II, HC, ...) is counted by type and as ``unused``, never read for a fix; talkers
-are counted in ``NmeaParser.talkers``.
+(position, status), GNS (position, mode, satellites, HDOP, altitude), VTG (speed, course), GSA (HDOP
+when no GGA; its fix mode) and GST (the receiver's 1-sigma latitude and longitude errors, m); GBS
+only for its time stamp (a u-blox ends its cycle with it). Every other well-formed sentence (GSV,
+ZDA, TXT, proprietary ``$P...`` sentences, and the instrument sentences of a boat's or car's bus:
+DPT, DBT, MWV, HDG, HDT, VHW, MTW, XDR, ... from talkers SD, WI, II, HC, ...) is counted by type and
+as ``unused``, never read for a fix; talkers are counted in ``NmeaParser.talkers``.
 
 Status. The cycle's fix is valid when its latest status-bearing sentence says so: GGA quality
 > 0 with satellites, RMC/GLL status ``A`` (FAA mode not ``N``), GNS mode, or a GSA fix mode
@@ -28,24 +28,26 @@ of 2 or 3, which vouches for the cycle's latest position even when that position
 said otherwise (as gpsd takes it: Garmin and Furuno receivers send a GGA counting 0 satellites,
 then a GSA listing the satellites used); GSA mode 1 means no fix.
 
-Cycles, as gpsd groups them. A receiver sends a burst of sentences per navigation cycle (e.g.
-RMC, VTG, GGA, GSA, GSV, GLL at 1-10 Hz); the position sentences of one cycle (GGA, RMC, GLL,
-GNS) carry the same UTC time. A sentence whose time differs from the cycle's (by more than
+Cycles, as gpsd groups them. A receiver sends a burst of sentences per navigation cycle (e.g. RMC,
+VTG, GGA, GSA, GSV, GLL at 1-10 Hz); the position sentences of one cycle (GGA, RMC, GLL, GNS) carry
+the same UTC time. A sentence whose time differs from the cycle's (by more than
 :data:`CYCLE_TIME_TOLERANCE_S`) starts the next cycle; sentences without a time (VTG, GSA, GSV,
 instrument sentences) belong to the cycle in progress. When a cycle starts, the type of the last
 time-stamped sentence of the one before is learned as a "cycle ender" (gpsd's rule: several types
 may be enders, as when a receiver's order varies; an RMC saying "no fix" is not a candidate, its
-time is not trusted; on a bus carrying a depth sounder's DBT, as gpsd, no ender is learned after
-the first DBT: there the order of the position sentences drifts). The cycle's fix is reported,
-once valid, at the sentence type that last ended a cycle among those used (usually the ender
-itself, or the GSA after it, whose fix mode may still vouch for or withdraw the fix); a cycle
-that reached an ender but not that sentence, or that lost a sentence to a bad checksum (perhaps
-its ender), is reported when it ends; one that never reached an ender is not reported, as gpsd
-does not (``incomplete_cycle``: a cycle cut short by a restart or a splice). Until an ender is known (the first cycle), the fix is reported as
-soon as it is valid. One fix per cycle: later sentences of a reported cycle are counted, not
-reported again. A stream without any time stamps starts a new cycle when a position sentence
-type repeats. The fix carries the position of the cycle's latest valid position sentence (as
-gpsd's report does) and its ``timestamp_s`` is the receive time of the cycle's first sentence.
+time is not trusted; on a bus carrying a depth sounder's DBT, as gpsd, no ender is learned after the
+first DBT: there the order of the position sentences drifts). The cycle's fix is reported, once
+valid, at the sentence type that last ended a cycle among those used (usually the ender itself, or
+the GSA after it, whose fix mode may still vouch for or withdraw the fix); a cycle that reached an
+ender but not that sentence, or that lost a sentence to a bad checksum (perhaps its ender), is
+reported when it ends; one that never reached an ender is not reported, as gpsd does not
+(``incomplete_cycle``: a cycle cut short by a restart or a splice). Until an ender is known (the
+first cycle), the fix is reported as soon as it is valid. One fix per cycle: later sentences of a
+reported cycle are counted, not reported again. A stream without any time stamps starts a new cycle
+when a position sentence type repeats. The fix carries the position of the cycle's latest valid
+position sentence (as gpsd's report does), the time of its latest time-stamped sentence (sentences
+of one cycle may differ by a few ms) and its ``timestamp_s`` is the receive time of the cycle's
+first sentence.
 
 ``GpsFix.utc_time_s`` is the UTC time of day (s since midnight); ``course_rad`` is an ENU yaw
 (counter-clockwise from east), converted from NMEA's degrees clockwise from true north.
@@ -83,7 +85,7 @@ KNOT_MPS = 1852.0 / 3600.0
 _START = frozenset(b"$!")
 _END = frozenset(b"\r\n")
 _POSITION_TYPES = frozenset({"GGA", "RMC", "GLL", "GNS"})
-_USED_TYPES = _POSITION_TYPES | {"VTG", "GSA", "GST"}
+_USED_TYPES = _POSITION_TYPES | {"VTG", "GSA", "GST", "GBS"}
 _CONTINUATION_TYPES = frozenset({"DBT"})
 """Instrument sentences that, as in gpsd, mark a multiplexed bus (a depth sounder's DBT):
 once one is seen, no further cycle enders are learned (the order of the position sentences
@@ -475,7 +477,7 @@ class NmeaParser:
             cycle = _Cycle(timestamp_s=timestamp_s)
             self._cycle = cycle
         if timed:
-            if not math.isfinite(cycle.utc_time_s):
+            if not cycle.emitted:  # the latest time of the cycle (gpsd's report carries it)
                 cycle.utc_time_s = utc_time_s
             if ender_candidate:
                 cycle.last_timed_type = kind
@@ -647,6 +649,13 @@ class NmeaParser:
             cycle.lat_sigma_m = _float(data[5]) if len(data) > 5 else math.nan
             cycle.lon_sigma_m = _float(data[6]) if len(data) > 6 else math.nan
         self._done(cycle, "GST", out)
+
+    def _on_gbs(self, timestamp_s: float, data: list[str], raw: bytes,
+                out: list[GpsFix]) -> None:
+        # Fault detection (RAIM) statistics: not used, but time-stamped, so it takes part in
+        # the cycle (u-blox receivers end their cycle with it).
+        cycle = self._cycle_for(timestamp_s, "GBS", self._utc(data[0]), out)
+        self._done(cycle, "GBS", out)
 
     def _on_gsa(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
