@@ -17,7 +17,6 @@ an Ouster's, told by their size and flags) are refused, counted as ``wrong_model
 
 from __future__ import annotations
 
-import inspect
 import logging
 from collections import Counter
 from collections.abc import Callable
@@ -233,20 +232,6 @@ class SweepSource:
                         n)
 
 
-def _make_detector(config: LidarConfig, car: CarConfig, model: LidarModel
-                   ) -> tuple[ConeDetector, bool]:
-    """The cone detector for ``model``, and whether it can detect in its sweeps (a detector
-    that does not take the sensor model knows the VLP-16's 16 rings only)."""
-    if "model" in inspect.signature(ConeDetector).parameters:
-        return ConeDetector(config.detector, car, model=model), True  # type: ignore[call-arg]
-    detector = ConeDetector(config.detector, car)
-    if model.name == "vlp16":
-        return detector, True
-    log.warning("lidar: this build's cone detector knows the VLP-16's rings only: the %s's "
-                "sweeps are decoded but give no cones", model.title)
-    return detector, False
-
-
 class LidarParser:
     """Datagrams of the configured LiDAR in, one :class:`LidarCones` per completed sweep out.
 
@@ -273,8 +258,8 @@ class LidarParser:
         model, meta = open_model(config.model, config.meta_file)
         self.model = model
         """The sensor (with an Ouster's own beam elevations)."""
-        self.detector, self._detects = _make_detector(
-            config, car if car is not None else CarConfig(), model)
+        self.detector = ConeDetector(config.detector, car if car is not None else CarConfig(),
+                                     model)
         window = None if all_points else self.detector.return_window()
         self.decoder = SweepSource(model, meta, config.cut_azimuth_deg, window, self.source)
         self.rejects = self.decoder.rejects
@@ -305,12 +290,8 @@ class LidarParser:
 
     def _detect(self, sweep: LidarPoints) -> LidarCones:
         self.last_sweep = sweep
-        if self._detects:
-            cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s,
-                                         sweep.timestamp_s, sweep.return_count, sweep.start_s)
-        else:
-            cones = LidarCones(sweep.timestamp_s, (), sweep.start_s,
-                               sweep.return_count or int(sweep.points.shape[0]))
+        cones = self.detector.detect(sweep.points, sweep.rings, sweep.times_s,
+                                     sweep.timestamp_s, sweep.return_count, sweep.start_s)
         self.counts["sweeps"] += 1
         self.counts["points"] += cones.point_count
         self.counts["cones"] += len(cones.cones)
