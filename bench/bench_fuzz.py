@@ -180,11 +180,11 @@ def _quiet_parsers(nets: _SafetyNets) -> Iterator[None]:
 
 def _report(results: list[_Result], nets: _SafetyNets, data_dir: Path, seed: int) -> None:
     print(f"mutated real captures from {data_dir} (seed {seed})")
-    print(f"{'parser':>7} {'inputs':>8} {'rejected':>9} {'clear':>6} {'internal':>8} "
+    print(f"{'parser':>12} {'inputs':>8} {'rejected':>9} {'clear':>6} {'internal':>8} "
           f"{'uncaught':>8} {'inputs/s':>9}")
     for r in results:
         rate = r.inputs / r.seconds if r.seconds > 0 else 0.0
-        print(f"{r.name:>7} {r.inputs:>8} {r.rejected:>9} {r.clear:>6} {r.internal:>8} "
+        print(f"{r.name:>12} {r.inputs:>8} {r.rejected:>9} {r.clear:>6} {r.internal:>8} "
               f"{r.uncaught:>8} {rate:>9.0f}")
     for r in results:
         for key, count in r.crashes.most_common(SHOWN_CRASHES):

@@ -8,7 +8,8 @@ returns the inputs one parser takes, in that parser's wire format:
   our IMU's VectorNav packets, 1..8 packets per input;
 - ``can``: the RAV4's CAN frames (``can/*candump.log``) plus the same drive's wheel speeds and
   steering angle encoded as our car's frames (``sensors/car.dbc``), as :func:`frame_bytes`;
-- ``lidar``: the VLP-16 capture's UDP datagrams (data and position packets), in order;
+- ``lidar``, ``lidar-hdl32e``, ``lidar-os1``: the VLP-16's, the HDL-32E's and the Ouster
+  OS1-64's captures' UDP datagrams, in order;
 - ``camera``: ``CameraCones`` datagrams of what a camera sees of the real cone layouts
   (``tracks/``) from poses along them;
 - ``mcap``: a small recording of the above, written by our own :class:`Recorder`, and the same
@@ -134,12 +135,25 @@ def can_seeds(data_dir: Path) -> list[bytes]:
     return [frame_bytes(f) for f in can_frames(data_dir)]
 
 
-def lidar_seeds(data_dir: Path) -> list[bytes]:
-    """The VLP-16 capture's UDP payloads in capture order."""
+def _pcap_payloads(pcap: Path) -> list[bytes]:
     from sensors.decode_lidar import read_pcap_udp
 
-    pcap = _need(data_dir / "lidar" / "velodyne_vlp16.pcap")
-    return [payload for _, _, payload in read_pcap_udp(pcap)]
+    return [payload for _, _, payload in read_pcap_udp(_need(pcap))]
+
+
+def lidar_seeds(data_dir: Path) -> list[bytes]:
+    """The VLP-16 capture's UDP payloads in capture order."""
+    return _pcap_payloads(data_dir / "lidar" / "velodyne_vlp16.pcap")
+
+
+def hdl32e_seeds(data_dir: Path) -> list[bytes]:
+    """The HDL-32E capture's UDP payloads in capture order."""
+    return _pcap_payloads(data_dir / "lidar" / "velodyne_hdl32e.pcap")
+
+
+def os1_seeds(data_dir: Path) -> list[bytes]:
+    """The Ouster OS1-64 capture's UDP payloads in capture order."""
+    return _pcap_payloads(data_dir / "lidar" / "ouster_example.pcap")
 
 
 def camera_messages(data_dir: Path, count: int = 300) -> list[CameraCones]:
@@ -236,6 +250,8 @@ SEEDS = {
     "imu": imu_seeds,
     "can": can_seeds,
     "lidar": lidar_seeds,
+    "lidar-hdl32e": hdl32e_seeds,
+    "lidar-os1": os1_seeds,
     "camera": camera_seeds,
     "mcap": mcap_seeds,
 }

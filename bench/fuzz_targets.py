@@ -144,16 +144,23 @@ class CanTarget(Target):
 
 class LidarTarget(Target):
     """LiDAR datagrams: :class:`sensors.lidar_parser.LidarParser` (model check, sweeps,
-    cone detection), one datagram per input, 1.327 ms apart."""
+    cone detection) for ``lidar.model`` ``model`` (an Ouster with its metadata file
+    ``meta_file``), one datagram per input, 1.327 ms apart."""
 
-    name = "lidar"
     ordered = True
     in_place_share = 0.7
 
+    def __init__(self, name: str = "lidar", model: str = "vlp16", meta_file: str = "") -> None:
+        super().__init__()
+        self.name = name
+        self._model = model
+        self._meta_file = meta_file
+
     def make(self) -> Any:
+        from sensors.config import LidarConfig
         from sensors.lidar_parser import LidarParser
 
-        return LidarParser()
+        return LidarParser(LidarConfig(model=self._model, meta_file=self._meta_file))
 
     def run(self, data: bytes) -> None:
         self.t_s += 0.001327
@@ -221,6 +228,9 @@ def make_targets(data_dir: Path) -> dict[str, Target]:
         "imu": ImuTarget(),
         "can": CanTarget(data_dir),
         "lidar": LidarTarget(),
+        "lidar-hdl32e": LidarTarget("lidar-hdl32e", "hdl32e"),
+        "lidar-os1": LidarTarget("lidar-os1", "os1-64",
+                                 str(data_dir / "lidar" / "ouster_example.json")),
         "camera": CameraTarget(),
         "mcap": McapTarget(),
     }

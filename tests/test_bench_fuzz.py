@@ -77,6 +77,6 @@ def test_bench_fuzz_runs_every_parser_clean() -> None:
     lines = proc.stdout.strip().splitlines()
     assert lines[-1] == "uncaught_exceptions=0", proc.stdout
     assert lines[-2] == "internal_errors=0", proc.stdout
-    for name in ("nmea", "imu", "can", "lidar", "camera", "mcap"):
+    for name in ("nmea", "imu", "can", "lidar", "lidar-hdl32e", "lidar-os1", "camera", "mcap"):
         row = next(line.split() for line in lines if line.split()[:1] == [name])
         assert row[1] == "300"
