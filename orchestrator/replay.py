@@ -243,6 +243,11 @@ def run_replay(config: AppConfig, options: ReplayOptions) -> dict[str, Any]:
                           "read_s": round(front_times.read_s, 4),
                           "sensors_s": round(front_times.sensors_s, 4)},
         },
+        # a driven run's replay does not estimate the GNSS latency (the localisation replay
+        # of a recorded drive does: orchestrator/localise.py); unset, the Mapper uses 0
+        "gnss_latency_s": config.mapper.ukf.gnss_latency_s or 0.0,
+        "gnss_latency_source": ("configured" if config.mapper.ukf.gnss_latency_s is not None
+                                else "unset"),
     }
     if truth_pose and est_pose:
         pairs = [(truth_pose[i], est_pose[t]) for i, t in enumerate(truth_t) if t in est_pose]
