@@ -230,6 +230,11 @@ def _replay(args: argparse.Namespace, config: AppConfig) -> int:
     elif summary.get("mode") == "localisation":
         print(f"localised {summary['log'] or recording} ({summary['ticks']} ticks, "
               f"{summary['timing']['realtime_factor']}x real time)")
+        if "gnss_latency_s" in summary:
+            sigma = summary.get("gnss_latency_sigma_s")
+            print(f"gnss_latency_s: {summary['gnss_latency_s']}"
+                  f"{f' +- {sigma}' if sigma is not None else ''} "
+                  f"({summary['gnss_latency_source']})")
         for key in ("position_rmse_m", "heading_rmse_deg", "gnss_raw_rmse_m",
                     "gnss_raw_course_rmse_deg", "nees_position_mean", "gnss_outage"):
             if key in summary:
