@@ -366,8 +366,10 @@ class NmeaParser:
         self.counts: collections.Counter[str] = collections.Counter()
         self.talkers: collections.Counter[str] = collections.Counter()
         self.cycle_enders: set[str] = set()
-        self._continued = False
         self._report_at: set[str] = set()
+        """Types after which cycles ended among those used (an ender, or a GSA after it)."""
+        self._continued = False
+        """A depth sounder's DBT was seen: no more enders are learned."""
         self._cycle: _Cycle | None = None
 
     # -- public ---------------------------------------------------------------------------
