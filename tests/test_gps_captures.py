@@ -8,13 +8,13 @@ sentence with a bad checksum, and never raise.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from sensors.cli import decode_nmea_file, strip_comment_lines
 from sensors.nmea import NmeaParser, with_checksum
+from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 
 DATA = shared_path("nmea")
@@ -22,20 +22,6 @@ CAPTURES = sorted(DATA.glob("*.log"))
 TOL_DEG = 1e-6
 
 pytestmark = pytest.mark.shared_data("nmea")
-
-
-def _gpsd_fixes(chk: Path) -> list[dict]:
-    fixes = []
-    for line in chk.read_text(errors="replace").splitlines():
-        if not line.startswith("{"):
-            continue
-        try:
-            obj = json.loads(line)
-        except json.JSONDecodeError:
-            continue
-        if obj.get("class") == "TPV" and obj.get("mode", 0) >= 2 and "lat" in obj:
-            fixes.append(obj)
-    return fixes
 
 
 def _time_of_day(iso: str) -> float:
@@ -60,7 +46,7 @@ def test_captures_present() -> None:
 
 @pytest.mark.parametrize("capture", CAPTURES, ids=lambda p: p.name)
 def test_capture_matches_gpsd(capture: Path) -> None:
-    reference = _gpsd_fixes(capture.with_name(capture.name + ".chk"))
+    reference = gpsd_fixes(capture.with_name(capture.name + ".chk"))
     assert reference, "answer key has no fixes"
     records = list(decode_nmea_file(capture))
     summary = records[-1]
@@ -77,7 +63,7 @@ def test_all_captures_match_gpsd_at_least_99_5_percent() -> None:
     """Issue 19.6: over all the shared captures together, >= 99.5 % of gpsd's fixes."""
     matched = total = 0
     for capture in CAPTURES:
-        reference = _gpsd_fixes(capture.with_name(capture.name + ".chk"))
+        reference = gpsd_fixes(capture.with_name(capture.name + ".chk"))
         ours = list(decode_nmea_file(capture))[:-1]
         matched += sum(_matches(ref, ours) for ref in reference)
         total += len(reference)

@@ -11,7 +11,6 @@ reaches its ender is counted, not reported.
 
 from __future__ import annotations
 
-import json
 import math
 import random
 from pathlib import Path
@@ -20,6 +19,7 @@ import pytest
 
 from sensors.cli import decode_nmea_file
 from sensors.nmea import NmeaParser, split_address, with_checksum
+from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 
 DATA = shared_path("nmea")
@@ -39,15 +39,7 @@ def gpsd_cycles(chk: Path) -> dict[object, list[tuple[float, float]]]:
     reported for it; a report without a time (gpsd did not know the date yet) is a cycle
     keyed by its own position."""
     cycles: dict[object, list[tuple[float, float]]] = {}
-    for line in chk.read_text(errors="replace").splitlines():
-        if not line.startswith("{"):
-            continue
-        try:
-            obj = json.loads(line)
-        except json.JSONDecodeError:
-            continue
-        if obj.get("class") != "TPV" or obj.get("mode", 0) < 2 or "lat" not in obj:
-            continue
+    for obj in gpsd_fixes(chk):
         key: object = (round(_time_of_day_s(obj["time"]), 3) if "time" in obj
                        else ("untimed", round(obj["lat"], 6), round(obj["lon"], 6)))
         cycles.setdefault(key, []).append((obj["lat"], obj["lon"]))
