@@ -81,6 +81,8 @@ def build_parser(command: str | None = None, *, complete: bool = True
         prog="main.py",
         description="Driverless Formula Student stack. With no subcommand: 'sim' on the default "
         "track.",
+        epilog="'COMMAND --help' gives a command's options. Documentation: README.md and docs/ "
+        "('mkdocs serve').",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
