@@ -68,22 +68,25 @@ from __future__ import annotations
 import collections
 import logging
 import math
-import re
 from dataclasses import dataclass, field
 
 from common.conventions import compass_deg_to_enu_yaw
 from common.messages import GpsFix
+from sensors.nmea_framing import (
+    KNOT_MPS,
+    NmeaFramer,
+    check_sentence,
+    parse_float,
+    parse_int,
+    parse_position,
+    parse_time_of_day,
+    split_address,
+)
 
 log = logging.getLogger(__name__)
 
-MAX_SENTENCE_CHARS = 200
-"""Longest candidate kept (NMEA allows 82; real receivers send up to ~100, proprietary more)."""
 
-KNOT_MPS = 1852.0 / 3600.0
-"""One knot in m/s."""
 
-_START = frozenset(b"$!")
-_END = frozenset(b"\r\n")
 _POSITION_TYPES = frozenset({"GGA", "RMC", "GLL", "GNS"})
 _USED_TYPES = _POSITION_TYPES | {"VTG", "GSA", "GST", "GBS"}
 _CONTINUATION_TYPES = frozenset({"DBT"})
@@ -92,195 +95,8 @@ once one is seen, no further cycle enders are learned (the order of the position
 on such a bus drifts, and every type would end up an ender)."""
 CYCLE_TIME_TOLERANCE_S = 0.01
 """Sentence times closer than this (s) are the same cycle's (gpsd's tolerance)."""
-_ADDRESS = re.compile(r"[A-Z][A-Z0-9]{2,9}")
-"""A sentence's address: talker and type (``GPGGA``), or ``P`` and a proprietary name."""
 _FAA_QUALITY = {"A": 1, "D": 2, "P": 3, "R": 4, "F": 5, "E": 6, "M": 7, "S": 8}
 """FAA mode indicator (RMC, GLL, VTG, GNS) to GGA quality; ``N`` means no fix."""
-
-
-def nmea_checksum(body: bytes) -> int:
-    """XOR of the bytes between ``$`` and ``*`` (``body`` excludes both)."""
-    value = 0
-    for byte in body:
-        value ^= byte
-    return value
-
-
-def with_checksum(body: str) -> bytes:
-    """A complete sentence ``$<body>*HH\\r\\n`` as bytes (``body`` without ``$`` and ``*``)."""
-    raw = body.encode("ascii")
-    return b"$" + raw + b"*%02X\r\n" % nmea_checksum(raw)
-
-
-class NmeaFramer:
-    """Cuts a byte stream fed in arbitrary chunks into candidate sentences (bytes, no CR LF).
-
-    ``rejects`` counts what framing threw away: ``junk`` (one per run of bytes outside a
-    sentence), ``binary`` (a candidate cut by a non-printable byte), ``too_long``.
-    """
-
-    def __init__(self, max_chars: int = MAX_SENTENCE_CHARS) -> None:
-        self.max_chars = max_chars
-        self.rejects: collections.Counter[str] = collections.Counter()
-        self._current = bytearray()
-        self._in_sentence = False
-        self._in_junk = False
-        self._overflow = False
-
-    def feed(self, data: bytes) -> list[bytes]:
-        """Frame ``data``; return the sentences completed by it (start char kept, end stripped)."""
-        out: list[bytes] = []
-        current = self._current
-        for byte in bytes(data):
-            if byte in _START:
-                if self._in_sentence:
-                    self._finish(out)
-                self._in_sentence = True
-                self._in_junk = False
-                self._overflow = False
-                current.append(byte)
-            elif not self._in_sentence:
-                if byte not in _END and not self._in_junk:
-                    self._in_junk = True
-                    self.rejects["junk"] += 1
-            elif byte in _END:
-                self._finish(out)
-            elif 0x20 <= byte < 0x7F:
-                if self._overflow:
-                    continue
-                if len(current) >= self.max_chars:
-                    self.rejects["too_long"] += 1
-                    current.clear()
-                    self._overflow = True
-                    continue
-                current.append(byte)
-            else:
-                # Non-printable: binary data (UBX, noise) inside what looked like a sentence.
-                self.rejects["binary"] += 1
-                current.clear()
-                self._in_sentence = False
-                self._overflow = False
-                self._in_junk = True
-        return out
-
-    def _finish(self, out: list[bytes]) -> None:
-        if not self._overflow and len(self._current) > 1:
-            out.append(bytes(self._current))
-        elif not self._overflow:
-            self.rejects["garbled"] += 1
-        self._current.clear()
-        self._in_sentence = False
-        self._overflow = False
-
-    def flush(self) -> list[bytes]:
-        """End of stream: return the unterminated last candidate, if any."""
-        out: list[bytes] = []
-        if self._in_sentence:
-            self._finish(out)
-        return out
-
-    def reset(self) -> None:
-        """Forget any partial sentence (e.g. after a reconnection)."""
-        self._current.clear()
-        self._in_sentence = False
-        self._in_junk = False
-        self._overflow = False
-
-
-def split_sentences(data: bytes) -> list[bytes]:
-    """All sentences framed in one complete buffer (the last one may lack its line end)."""
-    framer = NmeaFramer()
-    return framer.feed(data) + framer.flush()
-
-
-def check_sentence(sentence: bytes) -> str | None:
-    """``None`` when ``sentence`` (``$...*HH``) has a correct checksum; else a reject reason.
-
-    Reasons: ``bad_checksum``, ``garbled`` (``*`` not followed by exactly two hex digits),
-    ``no_checksum``.
-    """
-    star = sentence.rfind(b"*")
-    if star < 0:
-        return "no_checksum"
-    digits = sentence[star + 1 :]
-    if len(digits) != 2:
-        return "garbled"
-    try:
-        expected = int(digits, 16)
-    except ValueError:
-        return "garbled"
-    if nmea_checksum(sentence[1:star]) != expected:
-        return "bad_checksum"
-    return None
-
-
-def _coord(value: str, hemisphere: str, degree_digits: int) -> float:
-    """``ddmm.mmmm`` / ``dddmm.mmmm`` and N/S/E/W to signed degrees; ValueError if malformed."""
-    if len(value) < degree_digits + 2 or hemisphere not in ("N", "S", "E", "W"):
-        raise ValueError(f"bad coordinate {value!r} {hemisphere!r}")
-    degrees = int(value[:degree_digits])
-    minutes = float(value[degree_digits:])
-    if not (math.isfinite(minutes) and 0.0 <= minutes < 60.0):
-        raise ValueError(f"bad minutes in {value!r}")
-    result = degrees + minutes / 60.0
-    limit = 90.0 if degree_digits == 2 else 180.0
-    if result > limit:
-        raise ValueError(f"coordinate {value!r} out of range")
-    return -result if hemisphere in ("S", "W") else result
-
-
-def _position(lat: str, lat_hemisphere: str, lon: str, lon_hemisphere: str, strict: bool
-              ) -> tuple[float, float]:
-    """Signed degrees of a sentence's position fields; NaN, NaN when they are empty, or when
-    they are malformed and not ``strict`` (a sentence saying it has no fix may carry anything
-    there); malformed and ``strict`` (the sentence claims a fix): ValueError."""
-    if not lat or not lon:
-        return math.nan, math.nan
-    try:
-        return _coord(lat, lat_hemisphere, 2), _coord(lon, lon_hemisphere, 3)
-    except ValueError:
-        if strict:
-            raise
-        return math.nan, math.nan
-
-
-def _time_of_day(value: str) -> float:
-    """``hhmmss[.ss]`` to seconds since midnight; ValueError if malformed."""
-    if len(value) < 6 or not value[:6].isdigit():
-        raise ValueError(f"bad time {value!r}")
-    hours, minutes = int(value[0:2]), int(value[2:4])
-    seconds = float(value[4:])
-    if hours > 23 or minutes > 59 or not (math.isfinite(seconds) and 0.0 <= seconds < 61.0):
-        raise ValueError(f"bad time {value!r}")
-    return hours * 3600.0 + minutes * 60.0 + seconds
-
-
-def _float(value: str | None) -> float:
-    """A numeric field, NaN when empty; ValueError when not a finite number."""
-    if value is None or value == "":
-        return math.nan
-    result = float(value)
-    if not math.isfinite(result):
-        raise ValueError(f"non-finite number {value!r}")
-    return result
-
-
-def _int(value: str | None, default: int) -> int:
-    if value is None or value == "":
-        return default
-    return int(value)
-
-
-
-
-def split_address(address: str) -> tuple[str, str]:
-    """Talker and sentence type of an address: ``GPGGA`` -> ``("GP", "GGA")``; a proprietary
-    sentence (``PGRME``, ``PUBX``) -> ``("P", address)``; ValueError when it is not one."""
-    if not _ADDRESS.fullmatch(address):
-        raise ValueError(f"bad address {address!r}")
-    if address[0] == "P" or len(address) != 5:
-        return "P" if address[0] == "P" else "", address
-    return address[:2], address[2:]
 
 
 @dataclass(slots=True)
@@ -534,20 +350,20 @@ class NmeaParser:
 
     @staticmethod
     def _utc(value: str | None) -> float:
-        return _time_of_day(value) if value else math.nan
+        return parse_time_of_day(value) if value else math.nan
 
     def _on_gga(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
         utc = self._utc(data[0])
-        quality = _int(data[5], 0)
-        sats = _int(data[6], -1)
+        quality = parse_int(data[5], 0)
+        sats = parse_int(data[6], -1)
         # gpsd: a GGA claiming a fix from zero satellites is no fix.
         claims = quality > 0 and sats != 0
-        lat, lon = _position(data[1], data[2], data[3], data[4], claims)
+        lat, lon = parse_position(data[1], data[2], data[3], data[4], claims)
         valid = claims and math.isfinite(lat)
         sats = max(sats, 0)
-        hdop = _float(data[7])
-        alt = _float(data[8]) if len(data) > 8 else math.nan
+        hdop = parse_float(data[7])
+        alt = parse_float(data[8]) if len(data) > 8 else math.nan
         self._position_fix(timestamp_s, "GGA", utc, valid, lat, lon, (quality, sats, hdop, alt),
                            raw, out)
 
@@ -573,10 +389,10 @@ class NmeaParser:
         utc = self._utc(data[0])
         mode = data[11] if len(data) > 11 else ""
         claims = data[1] == "A" and mode != "N"
-        lat, lon = _position(data[2], data[3], data[4], data[5], claims)
+        lat, lon = parse_position(data[2], data[3], data[4], data[5], claims)
         valid = claims and math.isfinite(lat)
-        speed_kn = _float(data[6])
-        course = _float(data[7])
+        speed_kn = parse_float(data[6])
+        course = parse_float(data[7])
         cycle = self._cycle_for(timestamp_s, "RMC", utc, out,
                                 ender_candidate=data[1] in ("A", "D") and bool(data[8]))
         self._set_status(cycle, valid, lat, lon)
@@ -599,7 +415,7 @@ class NmeaParser:
         status = data[5] if len(data) > 5 else ""
         mode = data[6] if len(data) > 6 else ""
         claims = status == "A" and mode != "N"
-        lat, lon = _position(data[0], data[1], data[2], data[3], claims)
+        lat, lon = parse_position(data[0], data[1], data[2], data[3], claims)
         valid = claims and math.isfinite(lat)
         cycle = self._cycle_for(timestamp_s, "GLL", utc, out)
         self._set_status(cycle, valid, lat, lon)
@@ -615,19 +431,19 @@ class NmeaParser:
         utc = self._utc(data[0])
         modes = data[5] if len(data) > 5 else ""
         quality = max((_FAA_QUALITY.get(m, 0) for m in modes), default=0)
-        lat, lon = _position(data[1], data[2], data[3], data[4], quality > 0)
+        lat, lon = parse_position(data[1], data[2], data[3], data[4], quality > 0)
         valid = quality > 0 and math.isfinite(lat)
-        sats = _int(data[6], 0) if len(data) > 6 else 0
-        hdop = _float(data[7]) if len(data) > 7 else math.nan
-        alt = _float(data[8]) if len(data) > 8 else math.nan
+        sats = parse_int(data[6], 0) if len(data) > 6 else 0
+        hdop = parse_float(data[7]) if len(data) > 7 else math.nan
+        alt = parse_float(data[8]) if len(data) > 8 else math.nan
         self._position_fix(timestamp_s, "GNS", utc, valid, lat, lon, (quality, sats, hdop, alt),
                            raw, out)
 
     def _on_vtg(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        course = _float(data[0])
-        speed_kn = _float(data[4]) if len(data) > 4 else math.nan
-        speed_kmh = _float(data[6]) if len(data) > 6 else math.nan
+        course = parse_float(data[0])
+        speed_kn = parse_float(data[4]) if len(data) > 4 else math.nan
+        speed_kmh = parse_float(data[6]) if len(data) > 6 else math.nan
         mode = data[8] if len(data) > 8 else ""
         cycle = self._cycle_for(timestamp_s, "VTG", math.nan, out)
         if mode != "N" and not cycle.emitted:
@@ -648,8 +464,8 @@ class NmeaParser:
         same = not (math.isfinite(utc) and math.isfinite(cycle.utc_time_s)) or _same_time(
             utc, cycle.utc_time_s)
         if not cycle.emitted and same:
-            cycle.lat_sigma_m = _float(data[5]) if len(data) > 5 else math.nan
-            cycle.lon_sigma_m = _float(data[6]) if len(data) > 6 else math.nan
+            cycle.lat_sigma_m = parse_float(data[5]) if len(data) > 5 else math.nan
+            cycle.lon_sigma_m = parse_float(data[6]) if len(data) > 6 else math.nan
         self._done(cycle, "GST", out)
 
     def _on_gbs(self, timestamp_s: float, data: list[str], raw: bytes,
@@ -661,7 +477,7 @@ class NmeaParser:
 
     def _on_gsa(self, timestamp_s: float, data: list[str], raw: bytes,
                 out: list[GpsFix]) -> None:
-        hdop = _float(data[15]) if len(data) > 15 else math.nan
+        hdop = parse_float(data[15]) if len(data) > 15 else math.nan
         mode = data[1] if len(data) > 1 else ""
         cycle = self._cycle_for(timestamp_s, "GSA", math.nan, out)
         if not cycle.emitted:

@@ -14,7 +14,7 @@ import math
 
 from common.conventions import enu_yaw_to_compass_deg
 from common.messages import GpsFix
-from sensors.nmea import KNOT_MPS, with_checksum
+from sensors.nmea_framing import KNOT_MPS, with_checksum
 
 
 def _coord(value_deg: float, degree_digits: int, pos: str, neg: str) -> tuple[str, str]:

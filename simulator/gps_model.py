@@ -35,7 +35,7 @@ import numpy as np
 
 from common.conventions import LocalTangentFrame, WorldFrame, enu_yaw_to_compass_deg
 from common.messages import GroundTruth, RawBytes
-from sensors.nmea import KNOT_MPS, with_checksum
+from sensors.nmea_framing import KNOT_MPS, with_checksum
 from simulator.config import WorldConfig
 
 

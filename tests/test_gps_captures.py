@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from sensors.cli import decode_nmea_file, strip_comment_lines
-from sensors.nmea import NmeaParser, with_checksum
+from sensors.nmea import NmeaParser
+from sensors.nmea_framing import with_checksum
 from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from common.conventions import LocalTangentFrame, WorldFrame, wrap_angle
 from common.messages import GroundTruth
 from orchestrator.config import AppConfig
-from sensors.nmea import NmeaParser, split_sentences
+from sensors.nmea import NmeaParser
+from sensors.nmea_framing import split_sentences
 from simulator.gps_model import GpsModel
 
 # Quantisation: 1e-7 arc minute ~ 0.2 mm; speed 0.001 km/h; course 0.01 deg.
@@ -194,7 +195,7 @@ _FIELD = st.text(alphabet="0123456789.,-NSEWAVM*$ABCDEF", max_size=12)
        st.lists(_FIELD, max_size=16), st.booleans())
 def test_fuzz_nmea_like_sentences_never_raise(kind: str, fields: list[str], good: bool) -> None:
     """Plausible sentences with valid checksums and garbage fields: no exception, sane fixes."""
-    from sensors.nmea import with_checksum
+    from sensors.nmea_framing import with_checksum
 
     body = ",".join([kind, *fields]).replace("*", "").replace("$", "")
     sentence = with_checksum(body) if good else ("$" + body + "\r\n").encode()

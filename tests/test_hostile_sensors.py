@@ -26,7 +26,8 @@ from sensors.decode_can import decode_log
 from sensors.decode_lidar import read_pcap_udp
 from sensors.imu_protocol import ImuParser, crc16, encode_imu_packet
 from sensors.lidar_parser import LidarParser
-from sensors.nmea import NmeaParser, with_checksum
+from sensors.nmea import NmeaParser
+from sensors.nmea_framing import with_checksum
 
 HOSTILE = settings(max_examples=300, deadline=None, derandomize=True, database=None,
                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])

@@ -29,7 +29,7 @@ from orchestrator.config import AppConfig
 from sensors.can_codec import AS_COMMAND_ID, CanCodec
 from sensors.imu_protocol import encode_imu_packet
 from sensors.manager import SensorManager
-from sensors.nmea import with_checksum
+from sensors.nmea_framing import with_checksum
 
 
 def make_pty() -> tuple[int, int, str]:

@@ -24,7 +24,7 @@ from orchestrator.config import AppConfig
 from sensors.can_codec import CanCodec
 from sensors.imu_protocol import encode_imu_packet
 from sensors.manager import SensorManager
-from sensors.nmea import with_checksum
+from sensors.nmea_framing import with_checksum
 from simulator.can_model import CanModel
 
 

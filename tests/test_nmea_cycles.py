@@ -18,7 +18,8 @@ from pathlib import Path
 import pytest
 
 from sensors.cli import decode_nmea_file
-from sensors.nmea import NmeaParser, split_address, with_checksum
+from sensors.nmea import NmeaParser
+from sensors.nmea_framing import split_address, with_checksum
 from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 

@@ -13,7 +13,7 @@ import pytest
 
 from common.clock import RealClock
 from common.messages import GpsFix, RawBytes
-from sensors.nmea import with_checksum
+from sensors.nmea_framing import with_checksum
 from sensors.serial_receiver import LineFramer, SerialReceiver, gps_receiver
 
 FAST = dict(read_timeout_s=0.02, reconnect_min_s=0.02, reconnect_max_s=0.1)
