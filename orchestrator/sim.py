@@ -21,6 +21,7 @@ replay of the recording gives the same outputs (``outputs_sha256``) as this run.
 from __future__ import annotations
 
 import datetime as dt
+import gc
 import json
 import logging
 import math
@@ -217,6 +218,14 @@ def _make_recorder(path: Path, config: AppConfig, metadata: dict[str, str],
     return recorder
 
 
+def _freeze_heap() -> None:
+    """Collect once and freeze what the run built before its loop (track, managers, tables:
+    it lives to the end), so that the collector's full passes during the loop skip it, as
+    ``drive``'s processes do (:mod:`orchestrator.live`)."""
+    gc.collect()
+    gc.freeze()
+
+
 @dataclass
 class _Result:
     finished: bool
@@ -264,6 +273,7 @@ class _SimRunner:
         progress = _Progress(self.options.progress, config.mission.laps)
         times = self.main.times
         perf = time.perf_counter
+        _freeze_heap()
         for k in range(1, max_ticks + 1):
             t_s = k * dt_s
             if pacer is not None:
@@ -296,6 +306,7 @@ class _SimRunner:
                 stop_reason, finished = reason, ok
                 break
         progress.close()
+        gc.unfreeze()
         return _Result(finished, stop_reason, time.perf_counter() - wall0, self.clock.now_s())
 
     def _write_truth(self, t_s: float, truth: Any) -> None:

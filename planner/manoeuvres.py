@@ -255,38 +255,41 @@ class ManoeuvreGenerator:
             full = c.cone_clearance_m if margin_m is None else margin_m
             ramp_frac = np.clip(u / ramp, 0.0, 1.0)
         step = float(np.mean(np.diff(s))) if len(s) > 1 else 1.0
+        # every candidate's checks and cost at once (numpy over the family, not a loop of
+        # small calls per candidate: issue 42)
+        offs = np.asarray(offsets, np.float64)
+        cost_all = c.weight_curvature * (np.sum(kappa[:, in_h] ** 2, axis=1) * step)
+        cost_all = cost_all + c.weight_offset * offs * offs
+        if last_offset_m is not None:
+            cost_all = cost_all + c.weight_consistency * (offs - last_offset_m) ** 2
+        clear_all = np.full(count, math.inf)
+        worst = np.zeros(count, np.int64)
+        hit_all = np.zeros(count, bool)
+        if gap_all is not None:
+            clear_all = gap_all.min(axis=1)
+            # the hard margin grows from where the car is now (it is there: no closer than it
+            # already stands, if that is inside the near margin) to the full margin ahead; the
+            # preferred room is a cost, not a limit
+            near = np.minimum(min(c.cone_clearance_near_m, full), np.maximum(gap_all[:, 0], 0.0))
+            slack = gap_all - (near[:, None] + (full - near)[:, None] * ramp_frac[None, :])
+            worst = np.argmin(slack, axis=1)
+            hit_all = slack[np.arange(count), worst] < 0.0
+            short = np.maximum(0.0, c.preferred_clearance_m - clear_all)
+            cost_all = cost_all + np.where(np.isfinite(clear_all),
+                                           c.weight_clearance * short * short, 0.0)
+        bent_all = kmax_all > self.kappa_max_1pm
         cands: list[Candidate] = []
         for j in range(count):
-            off = float(offsets[j])
-            reason = ""
             kmax = float(kmax_all[j])
-            feasible = True
-            collision_free = True
-            if kmax > self.kappa_max_1pm:
-                feasible, reason = False, f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
-            clearance = math.inf
-            if gap_all is not None:
-                gap = gap_all[j]
-                clearance = float(np.min(gap))
-                # the hard margin grows from where the car is now (it is there: no closer than
-                # it already stands, if that is inside the near margin) to the full margin
-                # ahead; the preferred room is a cost, not a limit
-                near = min(c.cone_clearance_near_m, full, max(float(gap[0]), 0.0))
-                margin = near + (full - near) * ramp_frac
-                slack = gap - margin
-                i = int(np.argmin(slack))
-                if slack[i] < 0.0:
-                    feasible = collision_free = False
-                    reason = f"clearance {gap[i]:.2f} m to a cone at {u[i]:.1f} m"
-            kappa_j = kappa[j]
-            cost = c.weight_curvature * float(np.sum(kappa_j[in_h] ** 2) * step)
-            cost += c.weight_offset * off * off
-            if last_offset_m is not None:
-                cost += c.weight_consistency * (off - last_offset_m) ** 2
-            if math.isfinite(clearance):
-                short = max(0.0, c.preferred_clearance_m - clearance)
-                cost += c.weight_clearance * short * short
-            cands.append(Candidate(off, s, d[j], xy[j], heading[j], kappa_j, clearance,
-                                   feasible, cost, reason, collision_free, kmax,
+            reason = ""
+            if bent_all[j]:
+                reason = f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
+            collision_free = not hit_all[j]
+            if not collision_free:
+                i = int(worst[j])
+                reason = f"clearance {gap_all[j, i]:.2f} m to a cone at {u[i]:.1f} m"  # type: ignore[index]
+            cands.append(Candidate(float(offs[j]), s, d[j], xy[j], heading[j], kappa[j],
+                                   float(clear_all[j]), collision_free and not bent_all[j],
+                                   float(cost_all[j]), reason, collision_free, kmax,
                                    speed_cap_mps))
         return cands
