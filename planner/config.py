@@ -113,11 +113,6 @@ class PlannerConfig:
     safety supervisor's rule): a plan this late still covers a stop. Measured on small_track,
     seed 3: the exploration lap 20.2 s with no such room, 22.2 s with the stop alone, 24.3 s
     with 0.3 s (``bench load`` met plans 0.21-0.23 s late while exploring)."""
-    exploration_rebuild_s: float = 0.25
-    """While exploring, the frame from the cones mapped so far is rebuilt at most this often
-    (s of the run's clock; 0: at every plan); the plans between follow the last one. The
-    frame and its speed profile were most of a plan's time (issue 42), and the cones known
-    change little in a tenth of a second."""
     exploration_start_m: float = 1.0
     """While exploring, the path's curvature over its first metres (from the car to the middle
     of the track) does not set the speed profile; the manoeuvre's own curvature is checked.

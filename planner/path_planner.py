@@ -97,8 +97,6 @@ class PathPlanner:
         """The car's progress while it explores (distance, start-line crossings, trace)."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
-        self._cones_frame_s = -math.inf
-        """When (s) the frame was last built from the cones while exploring."""
 
     # ------------------------------------------------------------------ phases
     def observe(self, map_state: MapState) -> None:
@@ -292,10 +290,7 @@ class PathPlanner:
             self._race_worker.close()
             self._race_worker = None
 
-    def _frame_from_cones(self, map_state: MapState, open_due: bool = True) -> bool:
-        """The frame from the cones mapped so far: the closed loop as soon as one is found,
-        else the path through the gates ahead while exploring (only when ``open_due``: the
-        plans between follow the last one, ``exploration_rebuild_s``). True when made."""
+    def _frame_from_cones(self, map_state: MapState) -> bool:
         c = self.config
         pose = map_state.pose
         if not all(math.isfinite(v) for v in (pose.x_m, pose.y_m, pose.yaw_rad)):
@@ -322,8 +317,6 @@ class PathPlanner:
                 self.rejects[refusal] += 1
                 logger.debug("a loop in the cones, not the track (%s): still exploring", refusal)
                 closed = False
-        if not closed and not open_due:
-            return False
         if not closed and self._origin_xy is not None:
             # exploring: the gates ahead of the car, as far as the cones are known
             driven = self._explored.driven_behind() if self._explored is not None else None
@@ -493,11 +486,7 @@ class PathPlanner:
             if self._known_frame(map_state) and self._s_hint is None:
                 self._reset_progress(map_state)
         elif self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
-            due = (self.frame is None
-                   or now_s - self._cones_frame_s >= self.config.exploration_rebuild_s - 1e-9)
-            if due:
-                self._cones_frame_s = now_s
-            self._frame_from_cones(map_state, open_due=due)
+            self._frame_from_cones(map_state)
             if self.frame is not None and self.frame.closed:
                 self._reset_progress(map_state)
         frame = self.frame
