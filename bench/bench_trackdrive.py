@@ -3,7 +3,9 @@
 Runs ``sim`` (no rendering, no recording) on every (track, seed) and prints one line each: laps
 completed, cones hit, off-track events, pose RMSE, best lap time and its ratio to the
 friction-limited minimum lap time along the centreline
-(:func:`planner.speed_profile.min_lap_time_s`). Tracks: ``--tracks N`` (gen:1..N), or a list of
+(:func:`planner.speed_profile.min_lap_time_s`), and the explored lap's (the first, driven from
+the cones as they are mapped; autocross's one lap) over the same minimum. Tracks:
+``--tracks N`` (gen:1..N), or a list of
 names, files and folders (every ``.csv``/``.yaml`` in a folder), ``--hard`` adds the hard
 layouts (:mod:`simulator.hard_tracks`), ``--fsg`` FSG from the shared data. A run is clean when
 it completes its laps with no cone hit and no off-track event. Last lines: the clean count, the
@@ -112,8 +114,10 @@ def _one(config: AppConfig, track: str, laps: int, seed: int | None,
         return {"track": track, "seed": seed, "error": f"{type(exc).__name__}: {exc}",
                 "wall_s": time.perf_counter() - wall0}
     best = summary.get("best_lap_time_s")
+    explored = summary.get("exploration_lap_time_s")
     summary.update(track=track, seed=seed, min_lap_time_s=t_min,
                    lap_ratio=best / t_min if best else math.inf,
+                   explored_ratio=explored / t_min if explored else math.inf,
                    wall_s=time.perf_counter() - wall0)
     return summary
 
@@ -133,7 +137,8 @@ def _row(s: dict[str, Any], laps: int) -> tuple[str, bool]:
     return (f"{name:>26} {s['laps_completed']:>5d} {s['cones_hit']:>5d} {s['off_track']:>4d} "
             f"{rmse if rmse is not None else math.nan:>7.3f} "
             f"{best if best else math.nan:>7.2f} {s['min_lap_time_s']:>7.2f} "
-            f"{s['lap_ratio']:>6.3f} {s['wall_s']:>6.1f} {'clean' if clean else 'FAIL':>5}  "
+            f"{s['lap_ratio']:>6.3f} {s['explored_ratio']:>8.3f} {s['wall_s']:>6.1f} "
+            f"{'clean' if clean else 'FAIL':>5}  "
             f"{s['stop_reason']}"), clean
 
 
@@ -150,7 +155,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     seeds: list[int | None] = list(args.seeds) if args.seeds else [None]
     runs = [(track, seed) for track in tracks for seed in seeds]
     print(f"{'track:seed':>26} {'laps':>5} {'cones':>5} {'off':>4} {'rmse_m':>7} {'best_s':>7} "
-          f"{'min_s':>7} {'ratio':>6} {'wall_s':>6} {'':>5}  stop_reason", flush=True)
+          f"{'min_s':>7} {'ratio':>6} {'explored':>8} {'wall_s':>6} {'':>5}  stop_reason",
+          flush=True)
     results: list[dict[str, Any]] = []
     clean_runs = 0
     progress = Progress("trackdrive", len(runs), "runs", sys.stderr.isatty())
@@ -170,7 +176,11 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     worst = max(results, key=lambda s: (float(s.get("lap_ratio", math.inf)),
                                         int(s.get("cones_hit", 0))))
     cones = sum(int(s.get("cones_hit", 0)) for s in results)
-    print(f"runs={len(results)} clean={clean_runs} cones_hit={cones}")
+    explored = [float(s.get("explored_ratio", math.inf)) for s in results]
+    finite_explored = [r for r in explored if math.isfinite(r)]
+    median_explored = statistics.median(finite_explored) if finite_explored else math.inf
+    print(f"runs={len(results)} clean={clean_runs} cones_hit={cones} "
+          f"median_explored_ratio={median_explored:.3f} worst_explored_ratio={max(explored):.3f}")
     print(f"median_lap_ratio={statistics.median(finite) if finite else math.inf:.3f} "
           f"worst_lap_ratio={max(ratios):.3f} worst_track={_name(worst['track'])}"
           f":{worst['seed'] if worst['seed'] is not None else '-'}")

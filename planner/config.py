@@ -104,9 +104,29 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
-    exploration_speed_mps: float = 8.0
-    """Top speed (m/s) while exploring an unseen track from its cones: the profile also brakes
-    to a stop at the end of the track known so far."""
+    exploration_speed_mps: float = 12.0
+    """Top speed (m/s) while exploring an unseen track from its cones, a sanity cap: what sets
+    the pace is being able to stop within the track seen so far (``exploration_late_cover_s``
+    and the supervisor's stop; :mod:`planner.exploration_speed`), the friction circle and the
+    steering on the path. At 8 m/s (the cap that used to set it) FSG's autocross took 50.5 s
+    (seed 1); the invariant alone binds at 8-10 m/s where the cones are seen 10-12 m ahead."""
+    exploration_speed_lead_s: float = 0.75
+    """While exploring, the limit of being able to stop within the track seen is asked this
+    long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it
+    reads the speed that far ahead), at most ``exploration_speed_lead_max_m``
+    (:mod:`planner.exploration_speed`). 0.75 s: its preview (0.25 s) and the span its
+    feedforward reads the slope over (0.5 s). FSG autocross seed 1: 49.7 s at 0 (the car
+    braked all the time for an end of the track that moves on), 42.8 s at 0.75."""
+    exploration_speed_lead_max_m: float = 8.0
+    exploration_curvature_window_m: float = 0.0
+    """While exploring, the path's curvature sets its speed without its peaks narrower than
+    this (m): the kinks of a path through cones seen partly, not its bends
+    (:func:`planner.exploration_speed.speed_curvature`). 0: off. At 1.5 m FSG's autocross
+    took 41.4 s instead of 42.8 s (seed 1), but hard:hairpins hit 2 cones (0 at 0 m)."""
+    exploration_rate_sigma_m: float = 0.0
+    """While exploring, the path's curvature is smoothed over this (m, a Gaussian's standard
+    deviation) for the steering rate's speed limit alone
+    (:func:`planner.exploration_speed.exploring_curvature`)."""
     exploration_late_cover_s: float = 0.3
     """While exploring, the speed leaves room, before the end of the track known so far, for
     this long (s) of driving on plus the controlled stop a late plan must leave room for (the

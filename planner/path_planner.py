@@ -22,6 +22,7 @@ from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate,
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
+from planner.exploration_speed import exploring_curvature, exploring_speed_limit_mps
 from planner.explored_lap import ExploredLap
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
@@ -196,7 +197,7 @@ class PathPlanner:
         self.frame = frame
         self.frame_source = source
         self._frame_msg = frame.to_message()
-        self._speed_mps = self._profile(frame)
+        self._speed_mps = self._profile(frame, car_xy=(map_state.pose.x_m, map_state.pose.y_m))
         if source == "waypoints":
             self.book.set_points(frame.xy_m[:: max(int(c.waypoint_spacing_m / frame.step_m), 1)],
                                  closed)
@@ -367,22 +368,21 @@ class PathPlanner:
             frame, self.known.stop_s_m(KnownPathMission.scale(frame.length_m, path)))
         return True
 
-    def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf) -> FloatArray:
+    def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf,
+                 car_xy: tuple[float, float] | None = None) -> FloatArray:
         """The speed profile (M,) (m/s) along ``frame``; an open frame ends at standstill,
         at ``stop_s_m`` (m along it) when that comes first."""
         c = self.config
         ds = np.full(len(frame.s_m) if frame.closed else len(frame.s_m) - 1, frame.step_m)
-        kappa = frame.curvature_1pm
+        kappa = rate_kappa = frame.curvature_1pm
         exploring = not frame.closed and self._origin_xy is not None
         if exploring:
             # the path through the gates starts at the car: its first metres bend from where
             # the car is to the middle of the track, which the manoeuvre does, checked against
             # its own curvature; the speed comes from the track's bends beyond
-            kappa = kappa.copy()
-            n0 = min(int(c.exploration_start_m / frame.step_m), len(kappa) - 1)
-            kappa[:n0] = kappa[n0]
+            kappa, rate_kappa = exploring_curvature(kappa, frame.step_m, c)
         extra = steering_rate_speed_limit_mps(
-            kappa, frame.step_m, self.car.wheelbase_m,
+            rate_kappa, frame.step_m, self.car.wheelbase_m,
             c.steer_rate_fraction * self.car.max_steer_rate_radps,
             c.understeer_rad_per_mps2, frame.closed)
         extra = np.minimum(extra, self._lock_cap(kappa))
@@ -391,14 +391,9 @@ class PathPlanner:
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
                 c.two_level_fast_mps, c.two_level_slow_mps, c.two_level_turn_rad,
                 c.two_level_preview_m))
-        if exploring:
-            extra = np.minimum(extra, c.exploration_speed_mps)
-            if len(self._cover_room_m):
-                # the track ends where it is known: no faster than a plan followed
-                # exploration_late_cover_s late still leaves room for the supervisor's stop
-                remaining = frame.s_m[-1] - frame.s_m
-                extra = np.minimum(extra, np.interp(remaining, self._cover_room_m,
-                                                    self._cover_speed_mps))
+        if exploring:  # the invariant: able to stop within the track seen (exploration_speed)
+            extra = np.minimum(extra, exploring_speed_limit_mps(
+                frame, car_xy, self._cover_room_m, self._cover_speed_mps, c))
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,

@@ -68,21 +68,31 @@ def test_the_supervisor_follows_a_plan_0_3_s_late_at_15_m_s() -> None:
 
 
 def test_while_exploring_the_speed_leaves_room_for_a_late_stop_before_the_known_end() -> None:
-    """The track is known 12 m ahead: at every point of the profile, driving on for
-    ``exploration_late_cover_s`` and then the supervisor's controlled stop ends before the
-    known end. A planner not told the rule brakes later (its own, harder braking)."""
+    """The track is known 12 m ahead: wherever the car is on it, the speed the profile asks
+    from the car up to the controller's preview and feedforward span ahead (issue 45:
+    ``exploration_speed_lead_s``) lets it drive on for ``exploration_late_cover_s`` and then
+    make the supervisor's controlled stop before the known end. A planner not told the rule
+    brakes later (its own, harder braking)."""
     config = AppConfig()
     x = np.arange(0.0, 12.01, 0.5)
     frame = SplineBaseframe(np.column_stack([x, np.zeros_like(x)]), closed=False)
     late_s = config.planner.exploration_late_cover_s
     safety = config.controller.safety
-    speeds = []
-    for planner in (make_planner(config), PathPlanner(config.planner, config.car)):
-        planner._origin_xy = (0.0, 0.0)  # exploring: the track is known only so far
-        speeds.append(planner._profile(frame))
     remaining = frame.s_m[-1] - frame.s_m
-    need = np.array([v * late_s + late_stop_distance_m(float(v), safety) for v in speeds[0]])
-    moving = speeds[0] > 0.0
-    assert np.all(need[moving] <= remaining[moving] + 0.05)
-    assert np.all(speeds[0] <= speeds[1] + 1e-9)
-    assert np.any(speeds[0] < speeds[1] - 1.0)
+    for car_x in (0.0, 2.0, 5.0, 8.0):
+        speeds = []
+        for planner in (make_planner(config), PathPlanner(config.planner, config.car)):
+            planner._origin_xy = (0.0, 0.0)  # exploring: the track is known only so far
+            speeds.append(planner._profile(frame, car_xy=(car_x, 0.0)))
+        need = np.array([v * late_s + late_stop_distance_m(float(v), safety)
+                         for v in speeds[0]])
+        # the car's own room bounds every speed asked from it on
+        on = frame.s_m >= car_x
+        moving = on & (speeds[0] > 0.0)
+        assert np.all(need[moving] <= 12.0 - car_x + 0.05)
+        # and further on than the lead, the room of each point itself
+        lead = np.minimum(speeds[0] * config.planner.exploration_speed_lead_s,
+                          config.planner.exploration_speed_lead_max_m)
+        assert np.all(need[moving] <= remaining[moving] + lead[moving] + 0.05)
+        assert np.all(speeds[0] <= speeds[1] + 1e-9)
+        assert np.any(speeds[0] < speeds[1] - 1.0)

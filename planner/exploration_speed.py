@@ -1,0 +1,162 @@
+"""The speed limit on a track not seen before: set by what the car has seen (issue 45).
+
+One invariant, kept here: **the car can always stop within the part of the track it has
+mapped.** Along the exploring frame (the path through the cones seen so far, which ends where
+they end) the speed at arc length ``s`` is at most what lets the car drive on for the late
+cover (a plan followed that late, ``planner.exploration_late_cover_s``) and then make the
+safety supervisor's controlled stop (its reaction, margin and deceleration: the room a late
+plan must leave, handed in by Main) within the frame's remaining length. Nothing else caps the
+pace but a sanity top speed (``planner.exploration_speed_mps``) and the friction circle, the
+steering's rate and its lock on the path's curvature (:mod:`planner.speed_profile`). How far
+ahead the cones are seen (the perception's range, about 11-12 m from the car with the
+simulated VLP-16 low at the front) thus sets the pace on the straights.
+
+The controller asks for the profile's speed a little ahead of the car (its speed preview,
+``controller.speed_preview_s``, against the speed loop's lag) and feeds forward the profile's
+slope over the half second beyond. Near the end of the seen track those points are nearer the
+end than the car: asking the invariant there held the car a preview's worth of room short of
+what the invariant at the car allows and braked it all the time, on every metre of an unseen
+lap, for an end that moves on as cones come into view (FSG autocross, seed 1: 49.7 s). So
+over ``lead_s`` of driving ahead of the car the limit is the invariant's at the car itself
+(never more), and beyond, the invariant of a point that much nearer the car (42.8 s). The
+car then holds the speed it may drive where it is, and brakes when no new cones come into view
+and its own room shrinks. The supervisor's stop (6 m/s^2, after its reaction, with the late
+cover) stays well inside the brakes' 12 m/s^2, so the speed loop's lag (up to 1 m/s over the
+limit at the car on FSG) does not take the car past where it can stop.
+
+The path's curvature through cones seen partly (a gate's cone placed a few centimetres off,
+a side seen from far away) carries noise that a bend does not: a curvature spike over a metre
+or two asks for a dip in the speed that the car cannot and need not drive.
+:func:`speed_curvature` takes off the peaks narrower than ``exploration_curvature_window_m``
+for the speed alone (a bend keeps its curvature); the manoeuvres are still checked against
+their own curvature.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from planner.baseframe import SplineBaseframe
+from planner.config import PlannerConfig
+
+FloatArray = NDArray[np.float64]
+
+
+def stop_room_m(speed_mps: ArrayLike, late_s: float, reaction_s: float, margin_m: float,
+                decel_mps2: float) -> FloatArray:
+    """The room (m) a car at ``speed_mps`` needs to drive on ``late_s`` + ``reaction_s`` and
+    then stop at ``decel_mps2``, plus ``margin_m``: the invariant's measure."""
+    v = np.maximum(np.asarray(speed_mps, np.float64), 0.0)
+    return np.asarray(v * (late_s + reaction_s) + v * v / (2.0 * decel_mps2) + margin_m,
+                      np.float64)
+
+
+def seen_track_speed_mps(remaining_m: ArrayLike, room_m: FloatArray, speed_mps: FloatArray,
+                         top_speed_mps: float = math.inf, lead_m: ArrayLike = 0.0) -> FloatArray:
+    """The highest speed (m/s) at each point ``remaining_m`` (m) short of the end of the seen
+    track that still leaves the room to stop there: the inverse of the table (``room_m``,
+    ``speed_mps``), both increasing (:func:`planner.speed_profile.late_cover_table`, or
+    :func:`stop_room_m` on a grid of speeds), capped at ``top_speed_mps``. ``lead_m`` (m,
+    scalar or per point): the point the speed is asked for lies that far ahead of the car (the
+    controller's speed preview), so the room counted is that much more (it is the car's).
+    An empty table: no limit but the top speed. Zero at and past the end."""
+    rem = np.asarray(remaining_m, np.float64)
+    if len(room_m) == 0:
+        return np.full(rem.shape, float(top_speed_mps))
+    room = np.maximum(rem, 0.0) + np.maximum(np.asarray(lead_m, np.float64), 0.0)
+    v = np.interp(room, room_m, speed_mps, left=0.0)
+    v = np.where(rem > 0.0, v, 0.0)
+    return np.asarray(np.minimum(v, top_speed_mps), np.float64)
+
+
+def preview_lead_m(speed_mps: ArrayLike, lead_s: float, max_lead_m: float) -> FloatArray:
+    """How far ahead of the car (m) the controller reads the speed it is asked for at
+    ``speed_mps``: ``lead_s`` of driving, at most ``max_lead_m``."""
+    v = np.maximum(np.asarray(speed_mps, np.float64), 0.0)
+    return np.asarray(np.minimum(v * max(lead_s, 0.0), max_lead_m), np.float64)
+
+
+def speed_limit_along_mps(s_m: FloatArray, length_m: float, room_m: FloatArray,
+                          speed_mps: FloatArray, top_speed_mps: float, car_s_m: float = 0.0,
+                          lead_s: float = 0.0, max_lead_m: float = 0.0) -> FloatArray:
+    """The invariant's speed limit (M,) (m/s) along an exploring frame sampled at ``s_m`` (m)
+    of total length ``length_m``, the car at ``car_s_m``: never more than the car may drive
+    where it is (:func:`seen_track_speed_mps` of its remaining length); ahead of it, what
+    the invariant allows a point ``lead_s`` of driving (at the limit's own speed, at most
+    ``max_lead_m``) behind each point. So the speed the controller reads up to that far
+    ahead of the car, and its slope there, are the invariant's at the car: the car holds the
+    speed it may drive, instead of braking all the time for an end of the track that moves
+    on as cones come into view."""
+    remaining = length_m - np.asarray(s_m, np.float64)
+    v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps)
+    if lead_s <= 0.0 or max_lead_m <= 0.0:
+        return v
+    at_car = float(seen_track_speed_mps(np.array([length_m - car_s_m]), room_m, speed_mps,
+                                        top_speed_mps)[0])
+    for _ in range(3):  # the lead at the limit's own speed: a fixed point, a few steps
+        v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps,
+                                 preview_lead_m(v, lead_s, max_lead_m))
+    return np.asarray(np.minimum(v, at_car), np.float64)
+
+
+def speed_curvature(kappa_1pm: ArrayLike, step_m: float, window_m: float) -> FloatArray:
+    """The curvature (1/m) the speed of an exploring path is set from: ``kappa_1pm`` sampled
+    every ``step_m`` with every peak narrower than ``window_m`` (m) taken off (a grey opening,
+    the bends to the left and to the right apart): a kink of the path through cones seen
+    partly goes, a bend as long as the window or longer keeps its full curvature (a hairpin's
+    does: a Gaussian smoothing over 1 m took enough off the rules' tightest hairpin to hit
+    its cones) and a change of direction its full swing. 0: as it is."""
+    k = np.asarray(kappa_1pm, np.float64)
+    n = int(round(window_m / step_m)) if step_m > 0.0 else 0
+    if n < 2 or len(k) < 3:
+        return k.copy()
+    from scipy.ndimage import grey_opening  # local: only the profile needs it
+
+    left = grey_opening(np.maximum(k, 0.0), size=n, mode="nearest")
+    right = grey_opening(np.maximum(-k, 0.0), size=n, mode="nearest")
+    return np.asarray(left - right, np.float64)
+
+
+def exploring_speed_limit_mps(frame: SplineBaseframe, car_xy: tuple[float, float] | None,
+                              room_m: FloatArray, speed_mps: FloatArray, config: PlannerConfig
+                              ) -> FloatArray:
+    """:func:`speed_limit_along_mps` along the exploring ``frame`` with the car at ``car_xy``
+    (m; None: at the frame's start) and the planner's configuration: top speed
+    ``exploration_speed_mps``, lead ``exploration_speed_lead_s`` (at most
+    ``exploration_speed_lead_max_m``). ``room_m``, ``speed_mps``: the late cover's table
+    (:func:`planner.speed_profile.late_cover_table`)."""
+    car_s = 0.0
+    if car_xy is not None and all(math.isfinite(v) for v in car_xy):
+        car_s = float(frame.project(*car_xy)[0])
+    return speed_limit_along_mps(frame.s_m, float(frame.s_m[-1]), room_m, speed_mps,
+                                 config.exploration_speed_mps, car_s,
+                                 config.exploration_speed_lead_s,
+                                 config.exploration_speed_lead_max_m)
+
+
+def exploring_curvature(kappa_1pm: FloatArray, step_m: float, config: PlannerConfig
+                        ) -> tuple[FloatArray, FloatArray]:
+    """The curvatures (1/m) the speed of an exploring frame is set from: (the friction
+    circle's and the steering lock's, the steering rate's). Over the first
+    ``exploration_start_m`` both are the curvature just beyond (the path bends from where the
+    car is to the middle of the track, which the manoeuvre does, checked against its own
+    curvature); then :func:`speed_curvature` with ``exploration_curvature_window_m``; the
+    steering rate's is also smoothed by a Gaussian of ``exploration_rate_sigma_m`` (m): the
+    rate is the curvature's slope, which the kinks of a path through cones seen partly make
+    steep without a bend's change of steering (a bend's own curvature, its peak, is left to
+    the other two limits)."""
+    kappa = np.array(kappa_1pm, np.float64)
+    if len(kappa) == 0:
+        return kappa, kappa.copy()
+    n0 = min(int(config.exploration_start_m / step_m), len(kappa) - 1)
+    kappa[:n0] = kappa[n0]
+    kappa = speed_curvature(kappa, step_m, config.exploration_curvature_window_m)
+    sigma = config.exploration_rate_sigma_m / step_m
+    if sigma <= 0.0 or len(kappa) < 3:
+        return kappa, kappa.copy()
+    from scipy.ndimage import gaussian_filter1d  # local: only the profile needs it
+
+    return kappa, np.asarray(gaussian_filter1d(kappa, sigma, mode="nearest"), np.float64)

@@ -1,0 +1,82 @@
+"""The unseen track's speed limit (planner/exploration_speed.py, issue 45): the car can always
+stop within the part of the track it has seen, and nothing but that, the friction circle and the
+steering sets the pace."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.config import PlannerConfig
+from planner.exploration_speed import (
+    exploring_curvature,
+    seen_track_speed_mps,
+    speed_curvature,
+    speed_limit_along_mps,
+    stop_room_m,
+)
+
+SPEEDS = np.arange(0.0, 40.0, 0.05)
+# the supervisor's rule as Main hands it in: 0.3 s late, 0.2 s reaction, 0.2 m, 6 m/s^2
+ROOM = stop_room_m(SPEEDS, 0.3, 0.2, 0.2, 6.0)
+
+
+def test_the_limit_leaves_room_to_stop_everywhere() -> None:
+    remaining = np.linspace(0.0, 60.0, 601)
+    v = seen_track_speed_mps(remaining, ROOM, SPEEDS)
+    assert np.all(stop_room_m(v, 0.3, 0.2, 0.2, 6.0) <= np.maximum(remaining, 0.2) + 1e-6)
+    # and it is the highest such speed (within the table's step)
+    assert np.all(stop_room_m(v + 0.06, 0.3, 0.2, 0.2, 6.0)[remaining > 0.3]
+                  > remaining[remaining > 0.3])
+    assert v[0] == 0.0
+    assert np.all(np.diff(v) >= 0.0)
+
+
+def test_top_speed_caps_and_no_table_means_no_limit_but_it() -> None:
+    v = seen_track_speed_mps(np.array([5.0, 500.0]), ROOM, SPEEDS, top_speed_mps=12.0)
+    assert v[1] == 12.0 and v[0] < 12.0
+    free = seen_track_speed_mps(np.array([1.0, 50.0]), np.zeros(0), np.zeros(0), 9.0)
+    assert np.all(free == 9.0)
+
+
+@pytest.mark.parametrize("car_s_m", [0.0, 1.5, 4.0])
+def test_along_the_frame_the_car_never_asks_more_than_it_may_drive_where_it_is(
+        car_s_m: float) -> None:
+    s = np.arange(0.0, 12.0 + 1e-9, 0.25)
+    length = float(s[-1])
+    v = speed_limit_along_mps(s, length, ROOM, SPEEDS, 14.0, car_s_m, lead_s=0.75,
+                              max_lead_m=8.0)
+    at_car = seen_track_speed_mps(np.array([length - car_s_m]), ROOM, SPEEDS)[0]
+    assert np.all(v <= at_car + 1e-9)
+    # just ahead of the car (where the controller reads its speed) the limit is the car's own,
+    # not an end of the track a preview nearer
+    ahead = (s >= car_s_m) & (s <= car_s_m + 2.0)
+    assert np.allclose(v[ahead], at_car)
+    # without the lead it would ask less there: the car would brake all the time
+    plain = speed_limit_along_mps(s, length, ROOM, SPEEDS, 14.0, car_s_m)
+    assert np.all(plain[ahead][1:] < at_car)
+    assert v[-1] == 0.0
+    # further on the limit still falls to the end
+    assert np.all(np.diff(v[s > car_s_m + 8.0]) <= 1e-9)
+
+
+def test_speed_curvature_removes_kinks_not_bends() -> None:
+    step = 0.25
+    s = np.arange(0.0, 60.0, step)
+    # a 10 m bend of radius 3 m (the rules' tightest hairpin) then one of 8 m the other way
+    bend = np.where((s > 20.0) & (s < 30.0), 1.0 / 3.0, 0.0)
+    bend = np.where((s >= 30.0) & (s < 40.0), -1.0 / 8.0, bend)
+    kinked = bend.copy()
+    kinked[(s > 10.0) & (s < 10.6)] = 0.4  # a kink of a path through cones seen partly
+    kinked[(s > 45.0) & (s < 45.6)] = -0.3
+    out = speed_curvature(kinked, step, 1.5)
+    assert np.allclose(out, bend)  # the bends whole, their change of direction too
+    assert np.array_equal(speed_curvature(kinked, step, 0.0), kinked)
+
+
+def test_exploring_curvature_starts_from_the_track_beyond_the_car() -> None:
+    config = PlannerConfig(exploration_start_m=1.0, exploration_curvature_window_m=0.0)
+    kappa = np.r_[np.full(4, 0.5), np.full(20, 0.05)]
+    out = exploring_curvature(kappa, 0.25, config)
+    assert np.allclose(out, 0.05)
+    assert kappa[0] == 0.5  # the frame's own curvature is left as it is
