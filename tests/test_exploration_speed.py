@@ -75,8 +75,21 @@ def test_speed_curvature_removes_kinks_not_bends() -> None:
 
 
 def test_exploring_curvature_starts_from_the_track_beyond_the_car() -> None:
-    config = PlannerConfig(exploration_start_m=1.0, exploration_curvature_window_m=0.0)
+    config = PlannerConfig(exploration_start_m=1.0, exploration_curvature_window_m=0.0,
+                           exploration_rate_sigma_m=0.0)
     kappa = np.r_[np.full(4, 0.5), np.full(20, 0.05)]
-    out = exploring_curvature(kappa, 0.25, config)
-    assert np.allclose(out, 0.05)
+    speed, rate = exploring_curvature(kappa, 0.25, config)
+    assert np.allclose(speed, 0.05) and np.allclose(rate, 0.05)
     assert kappa[0] == 0.5  # the frame's own curvature is left as it is
+
+
+def test_the_steering_rate_reads_a_smoothed_curvature_the_friction_circle_the_peak() -> None:
+    config = PlannerConfig(exploration_start_m=0.0, exploration_curvature_window_m=0.0,
+                           exploration_rate_sigma_m=1.5)
+    s = np.arange(0.0, 40.0, 0.25)
+    kappa = np.where((s > 20.0) & (s < 30.0), 1.0 / 3.0, 0.0)
+    kappa[(s > 10.0) & (s < 10.5)] = 0.3  # a kink
+    speed, rate = exploring_curvature(kappa, 0.25, config)
+    assert np.array_equal(speed, kappa)  # the bend's and the kink's curvature: both kept
+    slope = np.abs(np.gradient(rate, 0.25))
+    assert slope[(s > 8.0) & (s < 13.0)].max() < 0.25 * np.abs(np.gradient(kappa, 0.25)).max()
