@@ -43,6 +43,10 @@ BLIND_GATE_WIDTHS = 1.9
 """Widest gate, in nominal track widths, that a path crosses between two cones of unknown
 colour: wider, the edge spans the infield between two stretches of track as often as a bend
 (which its known cones, or a narrower diagonal beside it, lead through)."""
+CONE_IN_GATE_FRACTION = 0.3
+"""A cone nearer an edge than this fraction of the edge's length, abreast of its middle
+``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
+CONE_IN_GATE_SPAN = 0.6
 MAX_TURN_RAD = 1.2
 """Largest change of heading from one midpoint to the next."""
 SEARCH_RADIUS_M = 30.0
@@ -234,6 +238,23 @@ class _Search:
         gx, gy = self.xy[b] - self.xy[a]
         return abs(math.cos(yaw_rad) * float(gy) - math.sin(yaw_rad) * float(gx))
 
+    def _cone_in_the_gate(self, a: int, b: int, c: int) -> bool:
+        """Whether cone ``c`` (the third corner of the triangle the path is in) stands in the
+        middle of edge (a, b): within ``CONE_IN_GATE_FRACTION`` of its length of the edge,
+        abreast of its middle ``CONE_IN_GATE_SPAN``. A gate has the track between its cones;
+        an edge with a cone in it spans a boundary (past the end of a row of cones not all
+        mapped yet, from one lane across an infield to the next: hard:corner-start)."""
+        pa, pb, pc = self.xy[a], self.xy[b], self.xy[c]
+        edge = pb - pa
+        length2 = float(edge @ edge)
+        if length2 <= 0.0:
+            return False
+        t = float((pc - pa) @ edge) / length2
+        if abs(t - 0.5) > 0.5 * CONE_IN_GATE_SPAN:
+            return False
+        off = abs(float(edge[0] * (pc - pa)[1] - edge[1] * (pc - pa)[0])) / math.sqrt(length2)
+        return off < CONE_IN_GATE_FRACTION * math.sqrt(length2)
+
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
         through it (the next lap crosses it the same way: that is no way back)."""
@@ -345,6 +366,8 @@ class _Search:
                 continue
             if self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
                 continue  # crossed so obliquely that it leaves no track width: a boundary
+            if self._cone_in_the_gate(a, b, tri[k]):
+                continue  # it spans a boundary (a cone stands in it): two lanes, not one
             if self._back_the_way_in(a, b, step):
                 continue
             nxt = int(self.neighbours[p.triangle][k])

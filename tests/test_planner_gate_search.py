@@ -195,3 +195,29 @@ def test_the_trace_blocks_only_the_edges_it_crossed() -> None:
     crossed = _edges_crossed(xy, tri.simplices, np.array([[2.0, -1.0], [2.0, 1.0]]))
     assert crossed == {(0, 1): 1.0}  # the bottom edge only, crossed towards its left
     assert _edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == {}
+
+
+def test_no_gate_spans_an_infield_past_the_mapped_end_of_a_row(monkeypatch) -> None:
+    """hard:corner-start's long straights: two lanes side by side (blue 4.5 m and yellow 7.5 m
+    up, blue 1.5 m and yellow -1.5 m down, driven the other way), mapped as far as each row's
+    cones came into view. The edge from the upper lane's last yellow cone down to the lower
+    lane's last blue one has the upper row's last blue cone standing in its middle: no gate
+    (with it the path turned across the infield and the car, going wide, hit the outer row)."""
+    xs = -np.arange(0.0, 49.0, 4.38) - 25.86
+    upper_blue = np.c_[xs + 0.62, np.full(len(xs), 4.55)]
+    upper_yellow = np.c_[xs, np.full(len(xs), 7.55)]
+    lower_blue = np.c_[xs - 0.9, np.full(len(xs), 1.55)]
+    lower_yellow = np.c_[xs - 2.5, np.full(len(xs), -1.45)]
+    xy = np.r_[upper_blue, upper_yellow, lower_blue, lower_yellow]
+    # driven along -x: the upper lane's blue row is on the car's left, its yellow on its right
+    col = np.r_[np.full(len(upper_blue), BLUE), np.full(len(upper_yellow), YELLOW),
+                np.full(len(lower_blue), BLUE), np.full(len(lower_yellow), YELLOW)]
+    start = np.array([upper_blue[-3, 0] + 1.0, 6.05])
+    pts, _ = gate_search_path(xy, col, start, np.pi, 3.5, 2.5, None)
+    assert len(pts) >= 3
+    assert np.all(pts[:, 1] > 5.0), pts  # never across the upper lane's inner row
+    import planner.gate_search as gs
+
+    monkeypatch.setattr(gs, "CONE_IN_GATE_FRACTION", 0.0)  # without the rule it did
+    pts, _ = gate_search_path(xy, col, start, np.pi, 3.5, 2.5, None)
+    assert np.any(pts[:, 1] < 5.0), pts
