@@ -93,3 +93,48 @@ def test_the_steering_rate_reads_a_smoothed_curvature_the_friction_circle_the_pe
     assert np.array_equal(speed, kappa)  # the bend's and the kink's curvature: both kept
     slope = np.abs(np.gradient(rate, 0.25))
     assert slope[(s > 8.0) & (s < 13.0)].max() < 0.25 * np.abs(np.gradient(kappa, 0.25)).max()
+
+
+@pytest.mark.parametrize("colour", [True, False])
+def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
+        colour: bool) -> None:
+    """The invariant in the planner itself, over the growing cone views of a lap of the
+    built-in track (``bench plan_local``'s, the cones mapped 12 m ahead in the camera's field
+    of view): wherever the car is, the speed the profile asks of it, from the car to as far
+    ahead as the controller reads it, leaves the room for the late cover and the
+    supervisor's stop before the end of the track seen; and the pace is not a constant."""
+    from bench.bench_plan_local import cone_views, map_state
+    from common.messages import ConeColour
+    from controller.safety import late_stop_distance_m
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+    from simulator.tracks import load_track
+
+    config = AppConfig()
+    safety = config.controller.safety
+    late_s = config.planner.exploration_late_cover_s
+    track = load_track("default")
+    views = cone_views(track, step_m=3.0, range_m=12.0, limit=60)
+    colours = np.asarray(track.colours, np.int64)
+    if not colour:
+        colours = np.full_like(colours, int(ConeColour.UNKNOWN))
+    planner = PathPlanner(config.planner, config.car,
+                          stop_distance_m=lambda v: late_stop_distance_m(v, safety))
+    planner.start_autonomous(map_state(views[0], colours))
+    asked = []
+    for view in views:
+        state = map_state(view, colours)
+        if not planner.explore(state) or not planner.exploring:
+            continue
+        frame = planner.frame
+        assert frame is not None
+        s_car = float(frame.project(view.x_m, view.y_m)[0])
+        room = frame.length_m - s_car
+        lead = planner.config.exploration_speed_lead_max_m
+        s = np.linspace(s_car, min(s_car + lead, frame.length_m), 9)
+        v = planner.speed_at(s)
+        need = np.array([x * late_s + late_stop_distance_m(float(x), safety) for x in v])
+        assert np.all(need[v > 0.0] <= room + 0.05), (view.t_s, room, v)
+        asked.append(float(v[0]))
+    assert len(asked) > 30
+    assert max(asked) > 8.0  # past the constant cap it had (8 m/s)
