@@ -1,10 +1,13 @@
 """The per-mission result of a run for ``summary.json``: the event's times against the friction
 limit.
 
-Every mission reports ``mission_time_s`` (the RES go to the car standing finished). Acceleration
-adds its time over the 75 m and skidpad its laps, each side's timed lap and their mean
-(:class:`simulator.mission_timing.MissionTimer`, ground truth), each against the friction-limited
-minimum of the same point mass trackdrive's best lap is compared with
+Every mission reports ``mission_time_s`` (the RES go to the car standing finished).
+Trackdrive and autocross add the lap driven on the unseen track (``explored_lap_s``), the
+friction-limited minimum lap of the true centreline (``min_lap_s``) and their ratio
+(``explored_ratio``). Acceleration adds its time over the 75 m and skidpad its laps, each
+side's timed lap and their mean (:class:`simulator.mission_timing.MissionTimer`, ground truth),
+each against the friction-limited minimum of the same point mass trackdrive's best lap is
+compared with
 (:mod:`planner.speed_profile`: 1.5 g lateral, 8 m/s^2 drive, 12 m/s^2 brake, 25 m/s, from the
 car's configuration) on the true layout: from standstill over the same 75 m, and a flying lap of
 the circle through the middle of each skidpad lane.
@@ -36,11 +39,19 @@ def mission_timer(mission: str, track: Track, car: CarConfig) -> MissionTimer | 
 
 
 def mission_result(mission: str, track: Track, car: CarConfig, timer: MissionTimer | None,
-                   mission_time_s: float | None) -> dict[str, Any]:
+                   mission_time_s: float | None,
+                   explored_lap_s: float | None = None) -> dict[str, Any]:
     """The mission's result (see the module docstring); ``mission_time_s``: go to finished
-    standstill (s; None when the run did not finish)."""
+    standstill (s; None when the run did not finish); ``explored_lap_s``: the lap driven on
+    the unseen track (trackdrive's first, autocross's only; None when there was none)."""
     result: dict[str, Any] = {"mission_time_s": _round(mission_time_s)}
     if timer is None:
+        if (mission in ("trackdrive", "autocross") and explored_lap_s is not None
+                and math.isfinite(explored_lap_s)):
+            t_min = min_lap_time_s(track.centreline_xy_m, car)
+            result["explored_lap_s"] = _round(explored_lap_s)
+            result["min_lap_s"] = _round(t_min)
+            result["explored_ratio"] = _ratio(explored_lap_s, t_min)
         return result
     result.update(timer.result())
     front_m = car.length_m - car.rear_overhang_m

@@ -468,7 +468,8 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
     mission_time = (result.sim_time_s - runner.person.handover_time_s
                     if result.finished else None)
     summary["mission_result"] = mission_result(config.mission.mission, track, config.car,
-                                               runner.timer, mission_time)
+                                               runner.timer, mission_time,
+                                               runner.person.exploration_lap_time_s)
     if runner.estop is not None:
         summary["estop"] = runner.estop
     return summary
