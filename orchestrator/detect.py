@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 
 from common.car import CarConfig
 from common.errors import DecodeError, FsdError
+from common.json_values import json_ready
 from common.messages import ConeSize
 from orchestrator.config import AppConfig
 from orchestrator.progress import Progress
@@ -198,7 +199,7 @@ def run_detect(args: argparse.Namespace, config: AppConfig) -> dict[str, Any]:
         }
         summary.update(totals.as_dict())
         summary["strict"] = strict.as_dict()
-    summary = _finite(summary)
+    summary = json_ready(summary)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     _write_report(out, summary, results)
     return summary
@@ -269,16 +270,6 @@ def _draw_frame(path: Path, sweep: Sweep, result: FrameResult, detector: ConeDet
     plt.close(fig)
 
 
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_finite(v) for v in value]
-    return value
-
-
 HEADLINE = ("source", "lidar_model", "frames", "frames_skipped", "points", "cones",
              "detect_ms_median", "detect_ms_p99", "recall", "precision",
              "median_position_error_m", "true_positives", "false_positives", "misses")
@@ -313,5 +304,5 @@ def _write_report(out: Path, summary: dict[str, Any], results: list[FrameResult]
                  f"{r.detect_ms:.2f}"]
         parts.append("<tr>" + "".join(f"<td>{e(c)}</td>" for c in cells) + "</tr>")
     parts.append("</table><h2>summary.json</h2><pre>"
-                 f"{e(json.dumps(_finite(summary), indent=2))}</pre></body></html>\n")
+                 f"{e(json.dumps(summary, indent=2))}</pre></body></html>\n")
     (out / "report.html").write_text("".join(parts), encoding="utf-8")

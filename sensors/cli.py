@@ -23,6 +23,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+from common.json_values import json_ready
 from common.messages import GpsFix
 
 NMEA_CHUNK_BYTES = 64
@@ -62,19 +63,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     can.set_defaults(func=_decode_can)
 
 
-def _json_ready(value: Any) -> Any:
-    """NaN and inf to None (JSON has no NaN), recursively."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_ready(v) for v in value]
-    return value
-
-
 def _emit(obj: dict[str, Any]) -> None:
-    sys.stdout.write(json.dumps(_json_ready(obj), allow_nan=False) + "\n")
+    sys.stdout.write(json.dumps(json_ready(obj), allow_nan=False) + "\n")
 
 
 def strip_comment_lines(data: bytes) -> bytes:
