@@ -104,12 +104,13 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
-    exploration_speed_mps: float = 12.0
-    """Top speed (m/s) while exploring an unseen track from its cones, a sanity cap: what sets
-    the pace is being able to stop within the track seen so far (``exploration_late_cover_s``
-    and the supervisor's stop; :mod:`planner.exploration_speed`), the friction circle and the
-    steering on the path. At 8 m/s (the cap that used to set it) FSG's autocross took 50.5 s
-    (seed 1); the invariant alone binds at 8-10 m/s where the cones are seen 10-12 m ahead."""
+    exploration_speed_mps: float = 8.0
+    """Top speed (m/s) while exploring an unseen track from its cones. Below it, what sets the
+    pace is being able to stop within the track seen so far (``exploration_late_cover_s`` and
+    the supervisor's stop; :mod:`planner.exploration_speed`), the friction circle and the
+    steering on the path; the invariant alone binds at 8-10 m/s where the cones are seen 10-12
+    m ahead. 12 m/s took peanut's trackdrive (seeds 1 and 3, 3 laps) into "no feasible path"
+    after the explored lap, with a cone hit; 8 m/s drives it clean."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it

@@ -111,6 +111,8 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
     from simulator.tracks import load_track
 
     config = AppConfig()
+    # a sanity cap above the invariant's pace, so that the invariant is what binds
+    config.planner.exploration_speed_mps = 12.0
     safety = config.controller.safety
     late_s = config.planner.exploration_late_cover_s
     track = load_track("default")
