@@ -199,6 +199,7 @@ def run_detect(args: argparse.Namespace, config: AppConfig) -> dict[str, Any]:
         }
         summary.update(totals.as_dict())
         summary["strict"] = strict.as_dict()
+        summary["frame_offset"] = totals.frame_offset_dict()
     summary = json_ready(summary)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     _write_report(out, summary, results)

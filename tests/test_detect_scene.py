@@ -79,6 +79,27 @@ def test_totals_pool_frames() -> None:
     assert math.isnan(ScoreTotals().recall)
 
 
+def test_a_common_label_offset_is_told_from_the_detector_error() -> None:
+    """Four cones whose labels are all 0.2 m off in y (odometry at the frame's time), with
+    detection noise of 0.02 m: the plain error is the offset's, the leave-one-out error the
+    noise's; a frame with fewer than three hits tells nothing of its offset."""
+    rng = np.random.default_rng(3)
+    truth = np.array([[4.0, 1.5], [4.0, -1.5], [8.0, 1.5], [8.0, -1.5]])
+    totals = ScoreTotals()
+    for _ in range(20):
+        dets = truth + rng.normal(0.0, 0.02, truth.shape)
+        totals.add(score_frame(truth + [0.0, 0.2], dets))
+    totals.add(score_frame(np.array([[5.0, 0.0]]), np.array([[5.0, 0.3]])))
+    offset = totals.frame_offset_dict()
+    assert offset["frames"] == 20
+    assert offset["median_frame_offset_m"] == pytest.approx(0.2, abs=0.02)
+    assert totals.median_error_m == pytest.approx(0.2, abs=0.03)
+    # |N(0, 0.02^2 (1 + 1/3) I_2)|: Rayleigh median 0.02 * sqrt(4/3) * 1.177 = 0.027 m
+    assert offset["median_position_error_without_frame_offset_m"] == pytest.approx(0.027,
+                                                                                    abs=0.008)
+    assert math.isnan(ScoreTotals().frame_offset_dict()["median_frame_offset_m"])
+
+
 def test_window_edges() -> None:
     window = ScoringWindow()
     inside = window.inside(np.array([[2.5, 0.0], [2.51, 0.0], [8.0, 8.9], [8.0, 9.0]]))
@@ -297,6 +318,9 @@ def test_detect_writes_its_outputs(tmp_path: Path) -> None:
     assert summary["recall"] >= 0.9 and summary["precision"] >= 0.9
     assert summary["median_position_error_m"] < 0.1
     assert summary["detect_ms_median"] > 0
+    assert summary["frame_offset"]["frames"] == 3
+    assert (summary["frame_offset"]["median_position_error_without_frame_offset_m"]
+            < 0.1)
     rows = (out / "detections.csv").read_text().splitlines()
     assert rows[0] == "frame,x_m,y_m,z_m,size"
     assert {r.split(",")[0] for r in rows[1:]} == {"0000023", "0000024", "0000025"}
