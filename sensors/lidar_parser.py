@@ -57,6 +57,8 @@ log = logging.getLogger(__name__)
 DECODED_MODELS = ("vlp16", "hdl32e", "os1-64")
 """The ``lidar.model`` names whose packets are decoded."""
 _VelodyneItem = tuple[float, bytes, tuple[int, ...]]
+_HOUR_US = 3_600_000_000
+"""A Velodyne packet's timestamp counts microseconds past the hour."""
 
 
 def _velodyne_layout(name: str) -> VelodyneLayout:
@@ -111,6 +113,12 @@ class SweepSource:
     decoded (None: all). ``rejects`` counts bad and refused datagrams by reason,
     ``refused`` the refused ones by model, ``counts["packets"]`` the decoded ones.
     ``on_packet(timestamp_s, payload)``, when set, sees every packet that is decoded, in order.
+
+    A Velodyne datagram of n whole packets (n x 1206 bytes, n > 1) is a sweep unit, the packets
+    back to back as the simulator hands them out a sweep at a time
+    (:class:`simulator.lidar_model.LidarModel`, issue 42): it is read as its n packets, stamped
+    with the last one's arrival, each earlier one arrived its device-time gap to the last
+    before it (the sensor sends a packet as it fills). A sensor never sends such a datagram.
     """
 
     def __init__(self, model: LidarModel, meta: OusterMeta | None = None,
@@ -144,9 +152,30 @@ class SweepSource:
         return out
 
     def feed(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
-        """Take one datagram; return the sweeps it completes (usually none)."""
+        """Take one datagram, or a Velodyne sweep unit (see the class docstring); return the
+        sweeps it completes (usually none)."""
         if self.ouster is not None:
             return self._feed_ouster(self.ouster, timestamp_s, payload)
+        n = len(payload) // PACKET_SIZE
+        if n > 1 and len(payload) == n * PACKET_SIZE:
+            return self._feed_unit(timestamp_s, payload, n)
+        return self._feed_packet(timestamp_s, payload)
+
+    def _feed_unit(self, timestamp_s: float, payload: bytes, n: int) -> list[LidarPoints]:
+        """The ``n`` packets of a sweep unit, the last arrived at ``timestamp_s`` (s), each
+        earlier one its device-time gap to the last before it (at most 1 s, never later than
+        the one after it)."""
+        stamps_us = np.ndarray((n,), dtype="<u4", buffer=payload, offset=PACKET_SIZE - 6,
+                               strides=(PACKET_SIZE,)).astype(np.int64)
+        ahead_us = np.minimum((stamps_us[-1] - stamps_us) % _HOUR_US, 1_000_000)
+        arrival_s = np.minimum.accumulate((timestamp_s - ahead_us * 1e-6)[::-1])[::-1]
+        out: list[LidarPoints] = []
+        for i, t_s in enumerate(arrival_s.tolist()):
+            out.extend(self._feed_packet(t_s, payload[i * PACKET_SIZE:(i + 1) * PACKET_SIZE]))
+        return out
+
+    def _feed_packet(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:
+        """One Velodyne datagram."""
         try:
             fields = check_packet(payload)
         except DecodeError as exc:

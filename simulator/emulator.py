@@ -114,7 +114,8 @@ class HardwareEmulator:
         self.track = load_track(options.track)
         self.track.check_drivable(config.car.width_m)
         self.world = SimWorld(config, self.track, config.sim.seed,
-                              mission=Mission[options.mission.upper()])
+                              mission=Mission[options.mission.upper()],
+                              lidar_sweep_units=False)  # one datagram per packet, as sent
         self.driver = ScriptedDriver(self.track, config.car, config.sim.seed,
                                      speed_mps=config.sim.driver_speed_mps,
                                      steer_noise_rad=config.sim.driver_steer_noise_rad)

@@ -18,8 +18,10 @@ per firing sequence only the cones whose horizontal disc the ray's vertical plan
 Rays that hit nothing within ``config.sim.lidar.max_range_m`` return nothing (distance 0).
 
 The car moves during a sweep: each firing sequence uses the car's pose at its own time,
-extrapolated from the latest ground truth with its velocity and yaw rate (exact for constant
-speed and turn rate; polls come every physics step, a few ms apart).
+taken back from the ground truth of the poll at which its packet completed, with that truth's
+velocity and yaw rate (exact for constant speed and turn rate; polls come every physics step,
+5 ms apart, so no pose is carried over more than a step and a packet). Nothing is cast ahead
+of time: a packet is cast once it is complete, so its pose never rests on an extrapolation.
 
 Range noise ``range_sigma_m`` (Gaussian per return; ``noise = False`` or sigma 0 turns it
 off), distance quantisation 2 mm, per-return dropout ``dropout_prob`` and whole-packet loss
@@ -28,13 +30,22 @@ off), distance quantisation 2 mm, per-return dropout ``dropout_prob`` and whole-
 Each :class:`RawBytes` is stamped with the packet's arrival time: its first firing plus
 :data:`~sensors.velodyne.PACKET_DURATION_S` (the sensor sends a packet once it is full). The
 packet's own timestamp is the first firing in microseconds past the hour of simulated time.
+
+Sweep units (``sweep_units=True``, the closed-loop simulation's, issue 42): instead of one unit
+per packet, the packets are held until the poll at which one of them completes a sweep (its
+azimuths pass ``sensors.lidar.cut_azimuth_deg``, where the parser closes a sweep) and handed
+out as ONE :class:`RawBytes` whose payload is those packets back to back (n x 1206 bytes),
+stamped with the arrival of the last. The packets are the same bytes as one unit each would
+carry (the range noise of a packet depends on its number alone), the sweep reaches the parser
+at the same poll, and the whole sweep is cast, checked, handed to the recorder and parsed in
+one piece instead of about 75 (:class:`sensors.lidar_parser.SweepSource` reads such a unit as
+its packets, each arrived its device-time gap before the last).
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,7 +68,7 @@ from sensors.velodyne import (
 from simulator.config import WorldConfig
 
 CONE_RANGE_M = 30.0
-"""Cones farther than this from the sensor are not ray-cast (m)."""
+"""Cones farther than this (horizontally) from the sensor at a firing are not hit (m)."""
 BODY_HALF_ANGLE_DEG = 110.0
 """Rays more than this off the nose (deg) point back over the car and hit its body."""
 SMALL_CONE = (0.228 / 2.0, 0.325)
@@ -72,14 +83,44 @@ _COS_EL = np.cos(np.radians(LASER_ELEVATION_DEG))
 _TAN_EL = np.tan(np.radians(LASER_ELEVATION_DEG))
 _FIRINGS_PER_PACKET = 2 * BLOCKS_PER_PACKET
 _NOISE_TABLE_SIZE = 1 << 18
+_NOISE_HASH = 2654435761
+"""Knuth's multiplicative hash: packet number to the start of its noise in the table."""
+
+
+class _Motion(NamedTuple):
+    """Ground truths a batch's poses are taken from, one row per firing sequence (arrays of
+    the same shape): time (s), position (m), yaw (rad), body velocity (m/s), yaw rate (rad/s)."""
+
+    t_s: NDArray[np.float64]
+    x_m: NDArray[np.float64]
+    y_m: NDArray[np.float64]
+    yaw_rad: NDArray[np.float64]
+    vx_mps: NDArray[np.float64]
+    vy_mps: NDArray[np.float64]
+    yaw_rate_radps: NDArray[np.float64]
+
+
+def _motion(truths: list[GroundTruth], per_firing: NDArray[np.int64]) -> _Motion:
+    """The truths ``truths[per_firing[i]]`` as a :class:`_Motion` (one row per firing)."""
+    table = np.array([(tr.timestamp_s, tr.x_m, tr.y_m, tr.yaw_rad, tr.vx_mps, tr.vy_mps,
+                       tr.yaw_rate_radps) for tr in truths], dtype=np.float64)
+    rows = table[per_firing]
+    return _Motion(*(rows[:, j] for j in range(7)))
 
 
 class LidarModel:
-    """Emits the VLP-16 data packets due up to each ``poll`` time; deterministic for a seed."""
+    """Emits the VLP-16 data packets completed by each ``poll`` time; deterministic for a seed.
 
-    def __init__(self, config: WorldConfig, rng: np.random.Generator) -> None:
+    ``sweep_units``: one :class:`RawBytes` per sweep instead of one per packet (see the module
+    docstring); ``cut_azimuth_deg`` is where the parser closes its sweeps (deg, clockwise from
+    the nose; ``sensors.lidar.cut_azimuth_deg``).
+    """
+
+    def __init__(self, config: WorldConfig, rng: np.random.Generator,
+                 sweep_units: bool = False) -> None:
         self.cfg = config.sim.lidar
         self.rng = rng
+        self.sweep_units = sweep_units
         self.lidar_x_m = config.car.lidar_x_m
         self.lidar_z_m = config.car.lidar_z_m
         self.car_length_m = config.car.length_m
@@ -97,14 +138,18 @@ class LidarModel:
         self.packet_loss_prob = self.cfg.packet_loss_prob
         self.start_azimuth_deg = 180.0
         """Azimuth at t = 0 (deg, clockwise from the nose)."""
-        self.lookahead_s = 0.02
-        """Packets are generated in batches up to this far ahead of a poll (s). The pose is
-        extrapolated over it from ``truth``: 0.05 s (issue 42, for numpy's per-call cost) put
-        the cones of an accelerating car about a centimetre off and the FSG lap's SLAM NEES
-        out of its band (0.72 of the time in it, against 0.85 needed); 0.02 s keeps both."""
+        sensors = getattr(config, "sensors", None)
+        cut_deg = sensors.lidar.cut_azimuth_deg if sensors is not None else 180.0
+        self.cut_hundredths = int(round(cut_deg * 100.0)) % 36000
+        """Where sweep units end: the parser's cut (hundredths of a degree)."""
         self._next_k = 0
-        self._next_gen = 0
-        self._pending: deque[tuple[int, bytes]] = deque()
+        """The first packet not yet sent nor dropped."""
+        self._held: list[tuple[int, GroundTruth]] = []
+        """Sweep units: (last packet completed at a poll, that poll's truth) since the first
+        held packet ``_held_k0``, cast when the sweep completes."""
+        self._held_k0 = 0
+        self._cut_k = -1
+        """Sweep units: the next packet that completes a sweep at the parser."""
         # per laser: origin height above the ground and the (3-D) range to the ground
         self._laser_h = self.lidar_z_m + LASER_VERTICAL_OFFSET_M
         with np.errstate(divide="ignore"):
@@ -116,9 +161,12 @@ class LidarModel:
         self._laser_t = np.arange(LASERS) * LASER_TIME_S
         self._static_raw, self._static_refl = self._static_scene()
         self._unit_noise = rng.standard_normal(_NOISE_TABLE_SIZE)
+        self._noise_key = int(rng.integers(0, 1 << 31))
+        """Packet k's range noise starts at a table offset hashed from k and this key, so a
+        packet's noise does not depend on the batch it is cast in."""
         self._noise_sigma = math.nan
-        self._noise_raw = np.zeros(0, dtype=np.int64)
-        """Range noise in 2 mm units, drawn once; each batch takes a slice at a random offset."""
+        self._noise_raw = np.zeros(0, dtype=np.int32)
+        """Range noise in 2 mm units, drawn once (``_unit_noise`` scaled)."""
         self._max_raw = int(self.max_range_m / DISTANCE_UNIT_M)
         self._laser_drad = 2.0 * math.pi * self.rate_hz * self._laser_t
 
@@ -140,52 +188,48 @@ class LidarModel:
 
     def poll(self, t_s: float, truth: GroundTruth, vehicle: Any = None,
              track: Any = None) -> list[RawBytes]:
-        """Every packet completed by ``t_s`` (s), one :class:`RawBytes` each, in time order.
-
-        Packets are ray-cast in batches reaching ``lookahead_s`` past ``t_s`` (the car's pose
-        extrapolated from ``truth``; 20 ms of it moves a cone by millimetres) and handed out as
-        they complete.
-        """
+        """The packets completed by ``t_s`` (s) and not yet sent, in time order: one
+        :class:`RawBytes` each, or with ``sweep_units`` one for all of them once one completes a
+        sweep (none before). ``truth`` is the car's state at ``t_s``; the packets completed
+        since the last poll are cast from it."""
         if not self.enabled:
             return []
         k_end = int(math.floor((t_s + 1e-9) / PACKET_DURATION_S)) - 1  # last complete packet
         if k_end < self._next_k:
             return []
         if self.dead:  # nothing is cast or sent while the sensor is dead
-            self._pending.clear()
-            self._next_gen = max(self._next_gen, k_end + 1)
+            out = self._release(track)  # what completed before it died was sent
             self._next_k = k_end + 1
-            return []
-        if k_end >= self._next_gen:
-            k_gen = max(k_end, int(math.floor((t_s + self.lookahead_s) / PACKET_DURATION_S)))
-            ks = np.arange(max(self._next_gen, self._next_k), k_gen + 1)
-            self._next_gen = k_gen + 1
-            batch = list(zip(ks.tolist(), self.packets(ks, truth, track), strict=True))
-            if self.packet_loss_prob > 0:
-                lost = self.rng.random(len(batch)) < self.packet_loss_prob
-                batch = [b for b, gone in zip(batch, lost, strict=True) if not gone]
-            self._pending.extend(batch)
-        out: list[RawBytes] = []
-        while self._pending and self._pending[0][0] <= k_end:
-            k, payload = self._pending.popleft()
-            if not self.dead:
-                out.append(RawBytes(float((k + 1) * PACKET_DURATION_S), "lidar", payload))
+            return out
+        if not self.sweep_units:
+            ks = np.arange(self._next_k, k_end + 1)
+            self._next_k = k_end + 1
+            buf = self.packets(ks, _motion([truth], np.zeros(ks.size * _FIRINGS_PER_PACKET,
+                                                             dtype=np.int64)), track)
+            kept = self._kept(ks.size)
+            return [RawBytes(float((k + 1) * PACKET_DURATION_S), "lidar", buf[i].tobytes())
+                    for i, k in zip(kept.tolist(), ks[kept].tolist(), strict=True)]
+        if not self._held:
+            self._held_k0 = self._next_k
+        self._held.append((k_end, truth))
+        if self._cut_k < self._next_k:
+            self._cut_k = self._next_cut(self._next_k)
         self._next_k = k_end + 1
-        return out
+        return self._release(track) if k_end >= self._cut_k else []
 
-    def packets(self, ks: NDArray[np.int64], truth: GroundTruth, track: Any) -> list[bytes]:
+    def packets(self, ks: NDArray[np.int64], motion: _Motion, track: Any) -> NDArray[np.uint8]:
         """The payloads of packets number ``ks`` (consecutive; first firing at
-        k * PACKET_DURATION_S), the car's pose extrapolated from ``truth``."""
+        k * PACKET_DURATION_S), (n, 1206) bytes; each firing sequence's pose from its row of
+        ``motion`` (24 rows per packet)."""
         if ks.size and int(ks[-1] - ks[0]) != ks.size - 1:
             raise ValueError("LidarModel.packets: packet numbers must be consecutive")
         t_seq: NDArray[np.float64] = np.ravel(
             ks[:, None] * PACKET_DURATION_S + self._seq_t[None, :]).astype(np.float64)  # (F,)
         az_seq = self._azimuth_deg(t_seq)
-        n_rays = t_seq.size * LASERS
         # ground and car body: tabulated per 0.1 deg of azimuth, in raw 2 mm units
         bins = (az_seq * 10.0).astype(np.int64)
         bins[bins >= 3600] -= 3600
-        raw = self._static_raw[bins]  # (F, 16) int64
+        raw = self._static_raw[bins]  # (F, 16) int32
         refl = self._static_refl[bins]
         noisy = self.noise and self.range_sigma_m > 0
         if noisy:
@@ -193,17 +237,20 @@ class LidarModel:
                 self._noise_sigma = self.range_sigma_m
                 self._noise_raw = np.floor(
                     self._unit_noise * (self.range_sigma_m / DISTANCE_UNIT_M) + 0.5
-                ).astype(np.int64)
-            start = int(self.rng.integers(0, _NOISE_TABLE_SIZE - n_rays))
-            noise = self._noise_raw[start:start + n_rays].reshape(raw.shape)
-            raw = np.where(raw > 0, raw + noise, 0)
+                ).astype(np.int32)
+            rays = _FIRINGS_PER_PACKET * LASERS
+            start = (ks.astype(np.uint64) * np.uint64(_NOISE_HASH) + np.uint64(self._noise_key)
+                     ) % np.uint64(_NOISE_TABLE_SIZE - rays)
+            noise_at = (start.astype(np.int64)[:, None] + np.arange(rays)[None, :]).reshape(
+                raw.shape)
+            raw = np.where(raw > 0, raw + self._noise_raw[noise_at], 0)
         # cones: exact ray-cone intersections where they are nearer than ground or body
-        hits = self._cast_cones(t_seq, az_seq, truth, track)
+        hits = self._cast_cones(t_seq, az_seq, motion, track)
         if hits is not None:
             f_idx, l_idx, d = hits
-            cone_raw = np.floor(d * (1.0 / DISTANCE_UNIT_M) + 0.5).astype(np.int64)
+            cone_raw = np.floor(d * (1.0 / DISTANCE_UNIT_M) + 0.5).astype(np.int32)
             if noisy:
-                cone_raw += self._noise_raw[start + f_idx * LASERS + l_idx]
+                cone_raw += self._noise_raw[noise_at[f_idx, l_idx]]
             static = raw[f_idx, l_idx]
             nearer = (static == 0) | (cone_raw < static)
             raw[f_idx[nearer], l_idx[nearer]] = cone_raw[nearer]
@@ -214,9 +261,57 @@ class LidarModel:
         refl = np.where(raw > 0, refl, 0).astype(np.uint8)
         return self._encode(ks, az_seq, raw.astype(np.uint16), refl)
 
+    # -- sweep units ------------------------------------------------------------------------
+
+    def _kept(self, n: int) -> NDArray[np.int64]:
+        """Indices of the ``n`` packets of a batch that are not lost (``packet_loss_prob``)."""
+        if self.packet_loss_prob > 0:
+            return np.flatnonzero(self.rng.random(n) >= self.packet_loss_prob)
+        return np.arange(n)
+
+    def _release(self, track: Any) -> list[RawBytes]:
+        """Cast the held packets and hand them out as one unit (none held: nothing)."""
+        if not self._held:
+            return []
+        held, self._held = self._held, []
+        k0, k1 = self._held_k0, held[-1][0]
+        ks = np.arange(k0, k1 + 1)
+        counts = np.diff(np.array([k0 - 1] + [k for k, _ in held]))
+        per_packet = np.repeat(np.arange(len(held)), counts)
+        motion = _motion([tr for _, tr in held], np.repeat(per_packet, _FIRINGS_PER_PACKET))
+        buf = self.packets(ks, motion, track)
+        kept = self._kept(ks.size)
+        if kept.size == 0:
+            return []
+        if kept.size < ks.size:
+            buf = buf[kept]
+        last = int(ks[kept[-1]])
+        return [RawBytes(float((last + 1) * PACKET_DURATION_S), "lidar", buf.tobytes())]
+
+    def _block_rel(self, k: int, block: int) -> int:
+        """The azimuth packet ``k`` carries for ``block`` past the cut (hundredths of a
+        degree), computed as :meth:`_encode` writes it."""
+        t = k * PACKET_DURATION_S + float(self._seq_t[2 * block])
+        az = (self.start_azimuth_deg + 360.0 * self.rate_hz * t) % 360.0
+        return (int(round(az * 100.0)) % 36000 - self.cut_hundredths) % 36000
+
+    def _next_cut(self, k_from: int) -> int:
+        """The first packet from ``k_from`` on that closes a sweep at the parser: its block
+        azimuths pass the cut, or the cut lies between it and the packet before."""
+        last_block = BLOCKS_PER_PACKET - 1
+        prev = self._block_rel(k_from - 1, last_block)
+        k = k_from
+        while True:
+            first = self._block_rel(k, 0)
+            last = self._block_rel(k, last_block)
+            if first < prev or last < first:
+                return k
+            prev = last
+            k += 1
+
     # -- internals ------------------------------------------------------------------------
 
-    def _static_scene(self) -> tuple[NDArray[np.int64], NDArray[np.uint8]]:
+    def _static_scene(self) -> tuple[NDArray[np.int32], NDArray[np.uint8]]:
         """Raw distance (2 mm units, 0 = none) and reflectivity of ground and car body for
         each 0.1 deg of azimuth and each laser id, both (3600, 16)."""
         body_h = self._body_ranges()
@@ -226,74 +321,85 @@ class LidarModel:
                         np.where(np.isfinite(self._ground_range), GROUND_REFLECTIVITY, 0))
         raw = np.where(np.isfinite(dist), np.floor(dist / DISTANCE_UNIT_M + 0.5), 0)
         refl = np.broadcast_to(refl, raw.shape)
-        return raw.astype(np.int64), refl.astype(np.uint8)
+        return raw.astype(np.int32), refl.astype(np.uint8)
 
     def _azimuth_deg(self, t_s: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.mod(self.start_azimuth_deg + 360.0 * self.rate_hz * t_s, 360.0)
 
-    def _poses(self, t_s: NDArray[np.float64], truth: GroundTruth
+    def _poses(self, t_s: NDArray[np.float64], motion: _Motion, rows: NDArray[np.int64]
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Sensor x, y (world, m) and yaw (rad) at times ``t_s``, from the truth's motion."""
-        dt = t_s - truth.timestamp_s
-        r = truth.yaw_rate_radps
-        yaw = truth.yaw_rad + r * dt
-        # body-frame velocity integrated along a constant-rate turn
-        if abs(r) > 1e-6:
-            s = (np.sin(yaw) - math.sin(truth.yaw_rad)) / r
-            c = (math.cos(truth.yaw_rad) - np.cos(yaw)) / r
-            dx = truth.vx_mps * s - truth.vy_mps * c
-            dy = truth.vx_mps * c + truth.vy_mps * s
-        else:
-            cy, sy = math.cos(truth.yaw_rad), math.sin(truth.yaw_rad)
-            dx = (truth.vx_mps * cy - truth.vy_mps * sy) * dt
-            dy = (truth.vx_mps * sy + truth.vy_mps * cy) * dt
-        x = truth.x_m + dx + self.lidar_x_m * np.cos(yaw)
-        y = truth.y_m + dy + self.lidar_x_m * np.sin(yaw)
+        """Sensor x, y (world, m) and yaw (rad) at times ``t_s``, each from the truth in row
+        ``rows[i]`` of ``motion`` carried along its constant-rate turn (back in time: a packet
+        is cast from the truth of the poll that completed it)."""
+        t0 = motion.t_s[rows]
+        r = motion.yaw_rate_radps[rows]
+        yaw0 = motion.yaw_rad[rows]
+        vx, vy = motion.vx_mps[rows], motion.vy_mps[rows]
+        dt = t_s - t0
+        yaw = yaw0 + r * dt
+        # body-frame velocity integrated along a constant-rate turn (a straight line at r = 0)
+        turning = np.abs(r) > 1e-6
+        r_safe = np.where(turning, r, 1.0)
+        sin0, cos0 = np.sin(yaw0), np.cos(yaw0)
+        s = np.where(turning, (np.sin(yaw) - sin0) / r_safe, cos0 * dt)
+        c = np.where(turning, (cos0 - np.cos(yaw)) / r_safe, sin0 * dt)
+        x = motion.x_m[rows] + vx * s - vy * c + self.lidar_x_m * np.cos(yaw)
+        y = motion.y_m[rows] + vx * c + vy * s + self.lidar_x_m * np.sin(yaw)
         return x, y, yaw
 
     def _cast_cones(self, t_seq: NDArray[np.float64], az_seq: NDArray[np.float64],
-                    truth: GroundTruth, track: Any
+                    motion: _Motion, track: Any
                     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]] | None:
-        """Rays that hit a cone: (sequence index, laser id, 3-D range in m) of the nearest
-        cone hit of each, or None."""
+        """Rays that hit a cone within ``CONE_RANGE_M`` of the sensor at their firing: (sequence
+        index, laser id, 3-D range in m) of the nearest cone hit of each, or None. The result
+        of a ray does not depend on the batch it is cast in (the candidates below are a
+        superset, the test is per ray)."""
         if track is None or len(track.cones_xy_m) == 0:
             return None
-        mid = t_seq.size // 2
-        sx, sy, syaw = self._poses(t_seq[[0, mid, -1]], truth)
+        n_seq = t_seq.size
+        # sample poses, at most about 10 ms apart, bound the cones and sequences to try
+        samples = np.unique(np.linspace(0, n_seq - 1, 2 + n_seq // 200).round().astype(np.int64))
+        sx, sy, syaw = self._poses(t_seq[samples], motion, samples)
         cones = np.asarray(track.cones_xy_m, dtype=np.float64)
-        near = np.hypot(cones[:, 0] - sx[1], cones[:, 1] - sy[1]) < CONE_RANGE_M
+        dist = np.hypot(cones[:, 0, None] - sx[None, :], cones[:, 1, None] - sy[None, :])
+        near = dist.min(axis=1) < CONE_RANGE_M + 1.0
         if not near.any():
             return None
         cidx = np.flatnonzero(near)
         cxy = cones[cidx]
+        dist = dist[cidx]
         big = np.asarray(track.sizes)[cidx] == int(ConeSize.LARGE)
         rad = np.where(big, LARGE_CONE[0], SMALL_CONE[0])
         height = np.where(big, LARGE_CONE[1], SMALL_CONE[1])
         # candidate (sequence, cone) pairs: sequences whose azimuth is within the cone's angular
-        # half-width of its bearing, the bearing taken from the batch's first and last poses
+        # half-width of its bearing from some sample pose (unwrapped from the first sample's),
+        # once per turn the batch spans
         step_deg = 360.0 * self.rate_hz * FIRING_CYCLE_S
-        centres = []
-        for k in (0, 2):
-            qx_k, qy_k = cxy[:, 0] - sx[k], cxy[:, 1] - sy[k]
-            az_c = np.degrees(syaw[k] - np.arctan2(qy_k, qx_k))  # clockwise from the nose
-            centres.append(mid + (np.mod(az_c - az_seq[mid] + 180.0, 360.0) - 180.0) / step_deg)
-        d_c = np.hypot(cxy[:, 0] - sx[1], cxy[:, 1] - sy[1])
-        half = np.degrees(np.arcsin(np.minimum(1.0, (rad + 0.05) / np.maximum(d_c, 1e-6))))
+        qx_k, qy_k = cxy[:, 0, None] - sx[None, :], cxy[:, 1, None] - sy[None, :]
+        az_c = np.degrees(syaw[None, :] - np.arctan2(qy_k, qx_k))  # clockwise from the nose
+        rel = np.mod(az_c - az_seq[samples][None, :] + 180.0, 360.0) - 180.0
+        centres = samples[None, :] + rel / step_deg  # (C, S) sequence index of the bearing
+        per_turn = 360.0 / step_deg
+        centres -= np.round((centres - centres[:, :1]) / per_turn) * per_turn
+        d_min, d_max = dist.min(axis=1), dist.max(axis=1)
+        half = np.degrees(np.arcsin(np.minimum(1.0, (rad + 0.05) / np.maximum(d_min, 1e-6))))
         half = half / step_deg + 1.0
-        lo = np.maximum(np.ceil(np.minimum(centres[0], centres[1]) - half), 0).astype(np.int64)
-        hi = np.minimum(np.floor(np.maximum(centres[0], centres[1]) + half),
-                        t_seq.size - 1).astype(np.int64)
+        lo_c = np.ceil(centres.min(axis=1) - half)
+        hi_c = np.floor(centres.max(axis=1) + half)
+        turns = np.arange(-1, 2 + int(n_seq / per_turn))[:, None] * per_turn  # (T, 1)
+        lo = np.maximum(lo_c[None, :] + turns, 0).astype(np.int64).ravel()
+        hi = np.minimum(hi_c[None, :] + turns, n_seq - 1).astype(np.int64).ravel()
         counts = np.maximum(hi - lo + 1, 0)
         total = int(counts.sum())
         if total == 0:
             return None
-        cand_c = np.repeat(np.arange(cidx.size), counts)
+        cand_c = np.repeat(np.tile(np.arange(cidx.size), turns.shape[0]), counts)
         first = np.cumsum(counts) - counts
         cand_f = np.repeat(lo - first, counts) + np.arange(total)
         # lasers that can meet each cone at all: the ray's height across the cone's depth
         # overlaps the cone (the others pass over it or hit the ground before it)
-        near_d = np.maximum(d_c - rad, 0.05)[:, None]
-        far_d = (d_c + rad)[:, None]
+        near_d = np.maximum(d_min - rad - 1.0, 0.05)[:, None]
+        far_d = (d_max + rad + 1.0)[:, None]
         z_near = self._laser_h[None, :] + _TAN_EL[None, :] * near_d
         z_far = self._laser_h[None, :] + _TAN_EL[None, :] * far_d
         can = (np.maximum(z_near, z_far) >= 0.0) & (np.minimum(z_near, z_far) <= height[:, None])
@@ -302,9 +408,12 @@ class LidarModel:
             return None
         f = cand_f[pair]
         c = cand_c[pair]
-        # each ray's own sensor pose and azimuth
-        px, py, pyaw = self._poses(t_seq[f], truth)
-        hd = pyaw - np.radians(az_seq[f]) - self._laser_drad[laser]
+        # each ray's own sensor pose and azimuth (poses per sequence, where a cone may be hit)
+        seqs, f_at = np.unique(f, return_inverse=True)
+        sx_f, sy_f, head_f = self._poses(t_seq[seqs], motion, seqs)
+        head_f -= np.radians(az_seq[seqs])
+        px, py = sx_f[f_at], sy_f[f_at]
+        hd = head_f[f_at] - self._laser_drad[laser]
         ux, uy = np.cos(hd), np.sin(hd)
         qx = cxy[c, 0] - px
         qy = cxy[c, 1] - py
@@ -320,7 +429,7 @@ class LidarModel:
         qb = b + a0 * a1
         qc = q2 - a0 * a0
         disc = qb * qb - qa * qc
-        ok = disc >= 0.0
+        ok = (disc >= 0.0) & (q2 < CONE_RANGE_M * CONE_RANGE_M)
         if not ok.any():
             return None
         f, c, laser = f[ok], c[ok], laser[ok]
@@ -347,8 +456,8 @@ class LidarModel:
         return ray // LASERS, ray % LASERS, d
 
     def _encode(self, ks: NDArray[np.int64], az_seq: NDArray[np.float64],
-                raw: NDArray[np.uint16], refl: NDArray[np.uint8]) -> list[bytes]:
-        """Packets from per-ray raw distances and reflectivities, both (F, 16)."""
+                raw: NDArray[np.uint16], refl: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """Packets (n, 1206) from per-ray raw distances and reflectivities, both (F, 16)."""
         n = ks.size
         buf = np.zeros((n, PACKET_SIZE), dtype=np.uint8)
         blocks = buf[:, :1200].reshape(n, BLOCKS_PER_PACKET, 100)
@@ -366,4 +475,4 @@ class LidarModel:
         buf[:, 1200:1204] = stamp_us.astype("<u4").view(np.uint8).reshape(n, 4)
         buf[:, 1204] = RETURN_MODE_STRONGEST
         buf[:, 1205] = PRODUCT_VLP16
-        return [row.tobytes() for row in buf]
+        return buf

@@ -85,7 +85,9 @@ class SimWorld:
     ``res_go``: whether the remote stop (RES) reports "go" from the start (on the car the
     person presses go at the handover: :meth:`send_go`); ``mission``: the run's mission, which
     the car selects in ``MISSION_SELECT`` unless ``config.sim.mission_select`` says otherwise
-    (None: trackdrive).
+    (None: trackdrive). ``lidar_sweep_units``: the LiDAR's packets come as one raw unit per
+    sweep (:class:`~simulator.lidar_model.LidarModel`; the same bytes, parsed in one piece);
+    False: one unit per packet, when they have to be sent one datagram each (the emulator).
 
     The car's side of ``AS_STATUS``: :meth:`receive_can` decodes the frames the stack sends;
     ``as_status`` is the last one, ``as_transitions`` every change of its AS state as
@@ -95,7 +97,7 @@ class SimWorld:
     def __init__(self, config: WorldConfig, track: Track, seed: int | None = None,
                  faults: str | Iterable[str | Fault] | None = None,
                  sensors: Sequence[str] | None = None, res_go: bool = False,
-                 mission: Mission | None = None) -> None:
+                 mission: Mission | None = None, lidar_sweep_units: bool = True) -> None:
         self.config = config
         self.track = track
         self.seed = config.sim.seed if seed is None else int(seed)
@@ -109,6 +111,8 @@ class SimWorld:
         for (name, cls), child in zip(SENSOR_MODELS, children, strict=False):
             if name in wanted and getattr(config.sim, name).enabled:
                 self.models[name] = cls(config, np.random.default_rng(child))
+        if "lidar" in self.models:
+            self.models["lidar"].sweep_units = lidar_sweep_units
         self._step_index = 0
         self._command: ActuatorCommand | None = None
         self.cones_hit: set[int] = set()

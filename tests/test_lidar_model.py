@@ -169,3 +169,46 @@ def test_range_noise_sigma() -> None:
     expected = (config.car.lidar_z_m + 0.0112) / math.sin(math.radians(15.0))
     assert abs(np.std(rng3d) - config.sim.lidar.range_sigma_m) < 0.003
     assert abs(np.mean(rng3d) - expected) < 0.003
+
+
+def _timed(model: LidarModel, track: SimpleNamespace, duration_s: float, speed_mps: float,
+           yaw_rate_radps: float, dead_from_s: float = math.inf) -> list:
+    """(poll time, unit) of every unit polled, the sensor dead from ``dead_from_s``."""
+    out = []
+    for i in range(1, int(round(duration_s / 0.005)) + 1):
+        t = i * 0.005
+        model.dead = t >= dead_from_s
+        out.extend((t, u) for u in model.poll(t, _truth(t, speed_mps, yaw_rate_radps), None,
+                                              track))
+    return out
+
+
+@pytest.mark.parametrize("dead_from_s", [math.inf, 0.47])
+def test_sweep_units_carry_the_packets_and_close_sweeps_at_the_same_poll(
+        dead_from_s: float) -> None:
+    """A sweep unit is the packets it holds back to back, the same bytes one unit each would
+    carry (noise and all); the parser reads it as those packets and completes each sweep at
+    the poll it completes at from single packets, with times equal to well under 1 us."""
+    from sensors.lidar_parser import LidarParser
+    config = AppConfig()
+    track = _track()
+    single = _timed(LidarModel(config, np.random.default_rng(7)), track, 0.8, 12.0, 0.4,
+                    dead_from_s)
+    units = _timed(LidarModel(config, np.random.default_rng(7), sweep_units=True), track, 0.8,
+                   12.0, 0.4, dead_from_s)
+    assert all(len(u.payload) % PACKET_SIZE == 0 for _, u in units)
+    sent = b"".join(u.payload for _, u in single)
+    assert b"".join(u.payload for _, u in units) == sent[:sum(len(u.payload) for _, u in units)]
+    assert 5 <= len(units) <= 9
+    assert units[-1][1].timestamp_s <= min(dead_from_s, 0.8)
+
+    def sweeps(polled: list) -> list:
+        parser = LidarParser(config.sensors.lidar, config.car)
+        return [(t, c) for t, u in polled for c in parser.feed(u.timestamp_s, u.payload)]
+
+    a, b = sweeps(single), sweeps(units)
+    assert len(b) == len(a) >= 4
+    for (ta, ca), (tb, cb) in zip(a, b, strict=True):
+        assert ta == tb
+        assert abs(ca.timestamp_s - cb.timestamp_s) < 1e-6
+        assert len(ca.cones) == len(cb.cones)
