@@ -169,9 +169,41 @@ class SweepSource:
                                strides=(PACKET_SIZE,)).astype(np.int64)
         ahead_us = np.minimum((stamps_us[-1] - stamps_us) % _HOUR_US, 1_000_000)
         arrival_s = np.minimum.accumulate((timestamp_s - ahead_us * 1e-6)[::-1])[::-1]
+        packets = [payload[i * PACKET_SIZE:(i + 1) * PACKET_SIZE] for i in range(n)]
+        fast = self._unit_at_once(payload, n, stamps_us, arrival_s, packets)
+        if fast is not None:
+            return fast
         out: list[LidarPoints] = []
-        for i, t_s in enumerate(arrival_s.tolist()):
-            out.extend(self._feed_packet(t_s, payload[i * PACKET_SIZE:(i + 1) * PACKET_SIZE]))
+        for t_s, packet in zip(arrival_s.tolist(), packets, strict=True):
+            out.extend(self._feed_packet(t_s, packet))
+        return out
+
+    def _unit_at_once(self, payload: bytes, n: int, stamps_us: NDArray[np.int64],
+                      arrival_s: NDArray[np.float64], packets: list[bytes]
+                      ) -> list[LidarPoints] | None:
+        """A sweep unit's packets checked and admitted together, then assembled, when every
+        one is well formed and of the configured model (as one by one, without a call per
+        packet to the checks); None (nothing done) otherwise, or when ``on_packet`` watches."""
+        guard, assembler = self.guard, self.velodyne
+        if self.on_packet is not None or guard is None or assembler is None:
+            return None
+        rows = np.frombuffer(payload, dtype=np.uint8).reshape(n, PACKET_SIZE)
+        if not ((rows[:, 0:1200:100] == 0xFF).all() and (rows[:, 1:1200:100] == 0xEE).all()):
+            return None
+        azimuths = np.ndarray((n, BLOCKS_PER_PACKET), dtype="<u2", buffer=payload, offset=2,
+                              strides=(PACKET_SIZE, 100))
+        modes, products = rows[:, 1204], rows[:, 1205]
+        if (int(azimuths.max()) >= 36000 or (modes != modes[0]).any()
+                or (products != products[0]).any()):
+            return None
+        stamps = stamps_us.tolist()
+        if not guard.admit_all(stamps, int(modes[0]), int(products[0])):
+            return None
+        fields = np.column_stack([azimuths, stamps_us]).tolist()
+        out: list[LidarPoints] = []
+        for t_s, packet, f in zip(arrival_s.tolist(), packets, fields, strict=True):
+            out.extend(assembler.add_checked(t_s, packet, f))
+        self.counts["packets"] += n
         return out
 
     def _feed_packet(self, timestamp_s: float, payload: bytes) -> list[LidarPoints]:

@@ -184,14 +184,7 @@ class ModelGuard(Generic[T]):
         timed = timing_model(interval, mode) if interval is not None else None
         if timed is not None:
             assert interval is not None
-            key = (timed, product, interval)
-            verdict = self._verdicts.get(key)
-            if verdict is None:
-                verdict = Verdict(timed, f"product id 0x{product:02X} and {interval} us "
-                                         "between packets")
-                if len(self._verdicts) < 1024:
-                    self._verdicts[key] = verdict
-            self.verdict = verdict
+            self.verdict = self._timed_verdict(timed, product, interval)
         out = self._release(self.verdict) if self._held is not None else []
         verdict = self.verdict
         if verdict is None:
@@ -201,6 +194,45 @@ class ModelGuard(Generic[T]):
             return [*out, item]
         self._refuse(verdict)
         return out
+
+    def admit_all(self, stamps_us: list[int], mode: int, product: int) -> bool:
+        """Admit a run of packets at once (a sweep unit's: their timestamps in order, one
+        return mode and product id for all) when :meth:`admit` would admit every one of them:
+        then the stream's state is left as those calls would leave it and True is returned;
+        otherwise nothing changes and False is returned (admit them one by one)."""
+        if (self._held is not None or self._last_us is None or mode not in RETURN_MODES
+                or product not in (PRODUCT_VLP16, PRODUCT_HDL32E)):
+            return False
+        model = None if self.verdict is None else self.verdict.model
+        last_timed: tuple[str, int] | None = None
+        timed_of: dict[int, str | None] = {}
+        previous = self._last_us
+        for stamp in stamps_us:
+            interval = (stamp - previous) % _HOUR_US
+            previous = stamp
+            if interval not in timed_of:
+                timed_of[interval] = timing_model(interval, mode)
+            timed = timed_of[interval]
+            if timed is not None:
+                model, last_timed = timed, (timed, interval)
+            if model != self.expected:
+                return False
+        if last_timed is not None:
+            self.verdict = self._timed_verdict(last_timed[0], product, last_timed[1])
+        self._last_us = stamps_us[-1]
+        return True
+
+    def _timed_verdict(self, timed: str, product: int, interval: int) -> Verdict:
+        """The verdict of the timing (the model ``timed`` told by ``interval`` us between
+        packets of ``product``), made once per key."""
+        key = (timed, product, interval)
+        verdict = self._verdicts.get(key)
+        if verdict is None:
+            verdict = Verdict(timed, f"product id 0x{product:02X} and {interval} us "
+                                     "between packets")
+            if len(self._verdicts) < 1024:
+                self._verdicts[key] = verdict
+        return verdict
 
     def accepts(self, verdict: Verdict) -> bool:
         """Whether ``verdict`` names the expected model."""

@@ -10,6 +10,7 @@ default layouts) and loaded by name or file with :func:`simulator.tracks.load_tr
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -246,10 +247,12 @@ class Track(TrackLayout):
                 out.extend(self._grid.get((i, j), ()))
         return out
 
-    def cones_touched(self, footprint_xy_m: FloatArray) -> list[int]:
+    def cones_touched(self, footprint_xy_m: FloatArray | list[tuple[float, float]]
+                      ) -> list[int]:
         """Indices of the cones whose base circle overlaps the convex polygon ``footprint``
         (4,2) (corners in order, world frame)."""
-        poly = np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist()
+        poly = (footprint_xy_m if isinstance(footprint_xy_m, list)  # the world's, per step
+                else np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist())
         cx = sum(p[0] for p in poly) / len(poly)
         cy = sum(p[1] for p in poly) / len(poly)
         reach = max(math.hypot(p[0] - cx, p[1] - cy) for p in poly) + LARGE_CONE_RADIUS_M
@@ -263,11 +266,14 @@ class Track(TrackLayout):
                 hits.append(i)
         return sorted(hits)
 
-    def is_off_track(self, footprint_xy_m: FloatArray, hint: int | None = None) -> bool:
+    def is_off_track(self, footprint_xy_m: FloatArray | list[tuple[float, float]],
+                     hint: int | None = None) -> bool:
         """True when every corner of the footprint (4,2) is beyond a track boundary (the
         Formula Student "off course": all four wheels out). For acceleration and skidpad the
         test uses the distance to the centreline against the local half width."""
-        for x, y in np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist():
+        corners = (footprint_xy_m if isinstance(footprint_xy_m, list)
+                   else np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist())
+        for x, y in corners:
             _, lateral, seg = self.locate(x, y, hint)
             half = self.left_half_width_m[seg] if lateral >= 0.0 else self.right_half_width_m[seg]
             if abs(lateral) <= half:
@@ -275,7 +281,8 @@ class Track(TrackLayout):
         return True
 
 
-def _circle_touches_polygon(x: float, y: float, r: float, poly: list[list[float]]) -> bool:
+def _circle_touches_polygon(x: float, y: float, r: float,
+                            poly: Sequence[Sequence[float]]) -> bool:
     """Does the circle (x, y, r) overlap the convex polygon (list of [x, y], in order)?"""
     n = len(poly)
     inside_sign = 0

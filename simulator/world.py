@@ -73,6 +73,10 @@ def mission_select_value(setting: str, mission: Mission) -> int | None:
                          f"({', '.join(m.name.lower() for m in Mission)}) or 0..15") from None
 
 
+OFF_TRACK_MARGIN_M = 0.5
+"""The footprint's middle nearer the boundary than this (m, inside) is never off track."""
+
+
 def _timestamp(unit: RawUnit) -> float:
     return unit.timestamp_s
 
@@ -256,19 +260,23 @@ class SimWorld:
         st = vehicle.state
         track = self.track
         corners = vehicle.footprint_corners()
-        for i in track.cones_touched(corners):  # type: ignore[arg-type]
+        for i in track.cones_touched(corners):
             if i not in self.cones_hit:
                 self.cones_hit.add(i)
                 self.cone_hits.append((t, i))
                 log.info("t=%.2f s: cone %d knocked", t, i)
-        # off track: only worth the full test when the car is near a boundary
-        _, lateral, seg = track.locate(st.x_m, st.y_m, self._hint)
+        # off track: only worth the full test when the car is near a boundary: every corner
+        # beyond it puts their middle beyond it too (up to the bend of the boundary along
+        # the car, well inside OFF_TRACK_MARGIN_M)
+        mx = 0.25 * (corners[0][0] + corners[1][0] + corners[2][0] + corners[3][0])
+        my = 0.25 * (corners[0][1] + corners[1][1] + corners[2][1] + corners[3][1])
+        _, lateral, seg = track.locate(mx, my, self._hint)
         self._hint = seg
         half = (track.left_half_width_m[seg] if lateral >= 0.0
                 else track.right_half_width_m[seg])
         off = False
-        if abs(lateral) > half - 2.0:
-            off = track.is_off_track(np.array(corners), seg)
+        if abs(lateral) > half - OFF_TRACK_MARGIN_M:
+            off = track.is_off_track(corners, seg)
         if off and not self.off_track:
             self.off_track_events += 1
             log.info("t=%.2f s: car off track", t)

@@ -212,3 +212,36 @@ def test_sweep_units_carry_the_packets_and_close_sweeps_at_the_same_poll(
         assert ta == tb
         assert abs(ca.timestamp_s - cb.timestamp_s) < 1e-6
         assert len(ca.cones) == len(cb.cones)
+
+
+def test_a_sweep_unit_of_another_model_is_refused_as_its_packets_are() -> None:
+    """The checks a sweep unit passes at once are the per-packet ones: packets of another
+    Velodyne (here VLP-32C ids) are refused, counted alike, whether they come one by one or
+    as units; good units after them are decoded again."""
+    from sensors.lidar_parser import LidarParser
+    config = AppConfig()
+    track = _track()
+    single = _timed(LidarModel(config, np.random.default_rng(3)), track, 0.5, 5.0, 0.0)
+    units = _timed(LidarModel(config, np.random.default_rng(3), sweep_units=True), track, 0.5,
+                   5.0, 0.0)
+
+    def foreign(payload: bytes) -> bytes:
+        rows = np.frombuffer(payload, dtype=np.uint8).reshape(-1, PACKET_SIZE).copy()
+        rows[:, 1205] = 0x28
+        return rows.tobytes()
+
+    def fed(polled: list, bad_until_s: float) -> LidarParser:
+        parser = LidarParser(config.sensors.lidar, config.car)
+        for _, u in polled:
+            payload = foreign(u.payload) if u.timestamp_s <= bad_until_s else u.payload
+            parser.feed(u.timestamp_s, payload)
+        return parser
+
+    second_s = units[1][1].timestamp_s  # the packets of the first two units are foreign
+    a, b = fed(single, second_s), fed(units, second_s)
+    assert b.rejects["wrong_model"] > 50
+    assert b.refused == a.refused
+    assert a.counts["packets"] + a.rejects["wrong_model"] == len(single)
+    assert b.counts["packets"] + b.rejects["wrong_model"] == sum(
+        len(u.payload) // PACKET_SIZE for _, u in units)
+    assert b.counts["sweeps"] >= 1
