@@ -20,6 +20,12 @@ class SmootherConfig:
     confidence_decay: float = 1.0
     match_conf: float = 2.0
     initial_conf: float = 2.0
+    min_height_m: float = 0.1
+    """Detections whose top is lower than this (m) are not used by the smoother backend: its
+    reach before issue 45 (the simulated VLP-16's cones beyond 11.5 m show only low on one
+    ring). Without cross-covariances its map drifts as a block, and with the cones taken
+    further the default track's lap mapped cones again: 23-105 false landmarks of 140 (the
+    SLAM merges them at the loop closure)."""
     detection_range_m: float = 20.0
     """Seed 002, 7.2 note: objects farther than this from the sensor do not decay."""
     detection_fov_rad: float = 3.4
@@ -43,7 +49,12 @@ class ObjectFilterConfig:
 
     min_range_m: float = 1.0
     max_range_m: float = 20.0
-    min_height_m: float = 0.1
+    min_height_m: float = 0.05
+    """A detection's height is the top of its returns (m): a sparse LiDAR low on the car
+    reaches a small cone's top only near (the simulated VLP-16 0.3 m up: beyond 5.7 m only its
+    -1 deg ring, at 0.3 - d tan(1 deg) above the ground). 0.1 dropped every cone beyond 11.5 m
+    from the sensor, so cones entered the map 11-12 m ahead of the car; the cone detector's
+    ground clearance (0.05) is what a real cone's top is at least (issue 45: 14-15 m)."""
     max_height_m: float = 0.8
     min_width_m: float = 0.05
     max_width_m: float = 0.6
@@ -296,11 +307,21 @@ class SlamConfig:
     """The new big cones close the loop only when at least ``min_big_cone_pairs`` of them lie
     within this distance (m) of the car's line of travel: the car is arriving at the start line,
     not passing it on a neighbouring stretch of track (a hairpin's straights side by side)."""
+    big_cone_behind_max_m: float = 6.0
+    """... and no more than this (m) behind the car along its heading: the car arrives at the
+    start's big cones, so they are new ahead of it or just passed. A LiDAR that sees far maps
+    the start's big cones again from another stretch of track across the infield (FSG, cones
+    mapped to 15 m: 18 m behind the car, on its line of travel, they closed the loop half a
+    lap early, the map froze and the exploration stopped at the end of the cones seen)."""
     min_big_cone_votes: float = 3.0
     """Votes (detections) a landmark needs before it counts as a big orange cone."""
     closure_covariance_inflation: float = 4.0
     """The drift between old and new big cones is gated on this multiple of its covariance."""
     merge_distance_m: float = 1.2
+    duplicate_distance_m: float = 0.2
+    """Two landmarks nearer than this (m) are one cone mapped twice, seen together or not
+    (cones stand at least a base, 0.23 m, apart): the loop closure's backward sweep merges them
+    when their difference passes the merge gate."""
     merge_gate_probability: float = 0.9999
     same_point_sigma_m: float = 1.0e-3
     """The 'zero-noise' same-point measurement's floor (m): seed 5.3.2 uses none."""

@@ -43,6 +43,8 @@ class SmootherBackend(UkfInputs):
 
     def update_lidar(self, cones: Sequence[ConeDetection], timestamp_s: float,
                      odometer_m: float) -> SweepResult:
+        low = self.config.smoother.min_height_m
+        cones = [c for c in cones if not c.height_m < low]
         if not cones:
             return SweepResult(map_changed=False)
         xy_vehicle = self.compensated(cones, timestamp_s)

@@ -9,7 +9,7 @@ each pair is merged by a "same point" measurement ``l_old - l_new = 0`` with a t
 floor ``same_point_sigma_m`` (the seed uses none; the floor keeps S positive definite) and
 the new landmark is deleted. A backward sweep over the landmarks, newest first, then merges
 every duplicate: close in Euclidean and Mahalanobis distance to a landmark never seen at the
-same time.
+same time, or nearer than two cones can stand.
 """
 
 from __future__ import annotations
@@ -47,7 +47,8 @@ class LoopClosure:
 
         Tried after ``min_lap_distance_m`` of travel when new big orange cones (created within
         the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map,
-        the new ones are on the car's line of travel (``big_cone_lateral_max_m``), and either
+        the new ones are on the car's line of travel (``big_cone_lateral_max_m``) and not far
+        behind the car (``big_cone_behind_max_m``), and either
         as many new as old are seen, or the match is unambiguous, or the old ones are behind
         the car (no more new ones will come).
         """
@@ -68,7 +69,10 @@ class LoopClosure:
         yaw = float(ekf.xbuf[2])
         rel = lm[new] - ekf.xbuf[:2]
         lateral = -rel[:, 0] * math.sin(yaw) + rel[:, 1] * math.cos(yaw)
-        if np.count_nonzero(np.abs(lateral) <= c.big_cone_lateral_max_m) < c.min_big_cone_pairs:
+        ahead = rel[:, 0] * math.cos(yaw) + rel[:, 1] * math.sin(yaw)
+        arriving = (np.abs(lateral) <= c.big_cone_lateral_max_m) & (
+            ahead >= -c.big_cone_behind_max_m)
+        if np.count_nonzero(arriving) < c.min_big_cone_pairs:
             return False
         match = self._match_pattern(ekf, old, new)
         if match is None:
@@ -165,7 +169,10 @@ class LoopClosure:
         ekf.symmetrise()
 
     def _backward_sweep(self, ekf: SlamEkf, book: LandmarkBook) -> int:
-        """Merge duplicates newest first: a landmark and an older one never seen together."""
+        """Merge duplicates newest first: a landmark and an older one never seen together, or
+        nearer than ``duplicate_distance_m`` (two cones cannot stand that close; the old one of
+        a stretch seen again across the infield is associated again after the closure, so
+        both were seen since)."""
         c = self.cfg
         merged = 0
         order = np.argsort(-book.first_seen_m, kind="stable")
@@ -175,11 +182,14 @@ class LoopClosure:
             if where.size == 0:
                 continue
             j = int(where[0])
-            cand = np.flatnonzero(book.last_seen_m < book.first_seen_m[j])
+            lm = ekf.landmarks_view()
+            d_all = np.hypot(lm[:, 0] - lm[j, 0], lm[:, 1] - lm[j, 1])
+            cand = np.flatnonzero((book.last_seen_m < book.first_seen_m[j])
+                                  | (d_all <= c.duplicate_distance_m))
+            cand = cand[cand != j]
             if cand.size == 0:
                 continue
-            lm = ekf.landmarks_view()
-            d = np.hypot(lm[cand, 0] - lm[j, 0], lm[cand, 1] - lm[j, 1])
+            d = d_all[cand]
             close = d <= c.merge_distance_m
             if not np.any(close):
                 continue
