@@ -105,16 +105,20 @@ def steering_rate_speed_limit_mps(
     if closed:
         dk[0] = abs(float(k[1] - k[-1])) / (2.0 * ds_m)
         dk[-1] = abs(float(k[0] - k[-2])) / (2.0 * ds_m)
-    # v |dk| (L + K v^2) grows with v: bisection for where it meets the rate
-    lo = np.zeros(len(k))
-    hi = np.minimum(max_steer_rate_radps / np.maximum(dk * wheelbase_m, 1e-12), 1e3)
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        fast = mid * dk * (wheelbase_m + understeer_rad_per_mps2 * mid * mid) \
-            > max_steer_rate_radps
-        hi = np.where(fast, mid, hi)
-        lo = np.where(fast, lo, mid)
-    return np.asarray(lo, np.float64)
+    # v |dk| (L + K v^2) grows with v: where it meets the rate R is the one real root of
+    # K dk v^3 + L dk v - R (closed form, was 40 bisections), at most 1000 m/s
+    rate = max_steer_rate_radps
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        linear = rate / (dk * wheelbase_m)  # K = 0
+        if understeer_rad_per_mps2 > 0.0:
+            p = wheelbase_m / understeer_rad_per_mps2  # v^3 + p v + q = 0, q = -R / (K dk)
+            q_abs = rate / (understeer_rad_per_mps2 * dk)
+            root = 2.0 * math.sqrt(p / 3.0) * np.sinh(
+                np.arcsinh(1.5 * q_abs / p * math.sqrt(3.0 / p)) / 3.0)
+            v = np.where(np.isfinite(root), root, linear)
+        else:
+            v = linear
+    return np.asarray(np.minimum(np.where(dk > 0.0, v, np.inf), 1e3), np.float64)
 
 
 def _long_accel_available(v: float, kappa: float, a_lon: float, a_lat: float) -> float:
@@ -127,13 +131,19 @@ def _long_accel_available(v: float, kappa: float, a_lon: float, a_lat: float) ->
 
 def _pass(v_lim: FloatArray, kappa: FloatArray, ds: FloatArray, a_lon: float, a_lat: float,
           v0: float) -> FloatArray:
-    """One pass: v[i+1] <= sqrt(v[i]^2 + 2 a ds[i]), with a from the friction circle."""
-    v = np.empty_like(v_lim)
-    v[0] = min(v0, v_lim[0])
-    for i in range(len(v) - 1):
-        a = _long_accel_available(float(v[i]), float(kappa[i]), a_lon, a_lat)
-        v[i + 1] = min(v_lim[i + 1], math.sqrt(v[i] * v[i] + 2.0 * a * ds[i]))
-    return v
+    """One pass: v[i+1] <= sqrt(v[i]^2 + 2 a ds[i]), with a from the friction circle
+    (:func:`_long_accel_available`, inlined: the loop runs on Python floats, not numpy
+    scalars, for the planner's every profile)."""
+    limits, curv, steps = v_lim.tolist(), kappa.tolist(), ds.tolist()
+    v = min(float(v0), limits[0])
+    out = [v]
+    sqrt = math.sqrt
+    for i in range(len(limits) - 1):
+        usage = v * v * abs(curv[i]) / a_lat
+        a = 0.0 if usage >= 1.0 else a_lon * sqrt(1.0 - usage * usage)
+        v = min(limits[i + 1], sqrt(v * v + 2.0 * a * steps[i]))
+        out.append(v)
+    return np.asarray(out, np.float64)
 
 
 def forward_backward_speed_mps(
