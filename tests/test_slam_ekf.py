@@ -208,6 +208,40 @@ def test_loop_waits_while_the_start_pattern_is_ambiguous() -> None:
     assert np.allclose(slam.landmarks_xy_m[:2], [[7.1, 2.55], [7.1, -2.45]], atol=0.05)
 
 
+def test_loop_does_not_close_on_big_cones_far_behind_the_car() -> None:
+    # The start's big cones mapped again from another stretch (across the infield): on the
+    # car's line of travel but 20 m behind it, the car is not arriving at the start line.
+    three = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5]])
+    slam = _start_with_big_cones(three, car_x_m=30.0)
+    assert not slam.try_close_loop()
+    slam = _start_with_big_cones(three, car_x_m=7.25 + slam.cfg.big_cone_behind_max_m - 1.0)
+    assert slam.try_close_loop()
+
+
+def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> None:
+    # A cone mapped again mid-lap (seen across the infield, the old landmark unseen for
+    # long), then both associated again: never-seen-together does not hold, yet 3 cm apart
+    # they are one cone (two cones stand a base apart at least).
+    old_big = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
+    new_big = old_big[:3] + [0.3, 0.1]
+    twins = np.array([[20.0, 3.0], [20.03, 3.0]])
+    slam = _filter_with_landmarks(np.vstack([old_big, new_big, twins]), 0.1)
+    x = slam.x.copy()
+    x[0] = 2.0
+    slam.load_state(x, slam.P)
+    slam.odometer_m = 300.0
+    book = slam.book
+    book.first_seen_m[:4] = book.last_seen_m[:4] = 0.0
+    book.first_seen_m[4:7] = book.last_seen_m[4:7] = 298.0
+    book.size_votes[:7, int(ConeSize.LARGE)] = 5.0
+    book.first_seen_m[7:] = [100.0, 200.0]
+    book.last_seen_m[7:] = 299.0  # both seen since the second was mapped
+    assert slam.try_close_loop()
+    xy = slam.landmarks_xy_m
+    assert np.count_nonzero(np.hypot(xy[:, 0] - 20.0, xy[:, 1] - 3.0) < 0.1) == 1
+    assert slam.n_landmarks == 5
+
+
 def test_odometry_and_gps_reduce_uncertainty_and_reject_bad_input() -> None:
     slam = EkfSlam(MapperConfig(), CarConfig())
     for k in range(200):
