@@ -26,6 +26,7 @@ import json
 import logging
 import math
 import os
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -179,9 +180,28 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
             progress_log.info("sim: drawing the last frames")
             visualiser.close()
 
+    movie: threading.Thread | None = None
     if visualiser is not None:
+        # beside the summary, the plots and the report: its PNG decoding and the pipe to
+        # ffmpeg (which encodes in its own process) release the interpreter lock
         progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
-        _movie(config, out_dir)
+        movie = threading.Thread(target=_movie, args=(config, out_dir), name="sim-movie")
+        movie.start()
+    try:
+        summary = _finish(config, options, out_dir, track, world, main, runner, result,
+                          hasher, visualiser, live, recorder, movie)
+    finally:
+        if movie is not None:
+            movie.join()
+    return summary
+
+
+def _finish(config: AppConfig, options: SimOptions, out_dir: Path, track: Track,
+            world: SimWorld, main: Main, runner: _SimRunner, result: _Result,
+            hasher: HashSink, visualiser: Any, live: Any, recorder: Any,
+            movie: threading.Thread | None) -> dict[str, Any]:
+    """The run's summary, ``summary.json``, the plots and the report (once the ``movie``
+    thread has made the movie it links)."""
     summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
     if visualiser is not None:
         summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
@@ -195,6 +215,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
         runner.log.save(out_dir / "run_log.npz")
         progress_log.info("sim: writing the plots and report.html")
         _plots(out_dir, runner, track)
+        if movie is not None:
+            movie.join()
         _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
