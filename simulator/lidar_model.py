@@ -299,8 +299,15 @@ class LidarModel:
         """The first packet from ``k_from`` on that closes a sweep at the parser: its block
         azimuths pass the cut, or the cut lies between it and the packet before."""
         last_block = BLOCKS_PER_PACKET - 1
-        prev = self._block_rel(k_from - 1, last_block)
-        k = k_from
+        # the first turn past the cut after a little before k_from: the scan starts a couple
+        # of packets before the packet it falls in (rounding to 0.01 deg moves it a packet
+        # at most), never before k_from
+        deg_per_s = 360.0 * self.rate_hz
+        t0 = (k_from - 2) * PACKET_DURATION_S
+        turns = (self.start_azimuth_deg + deg_per_s * t0 - self.cut_hundredths / 100.0) / 360.0
+        t_cross = t0 + (math.floor(turns) + 1.0 - turns) * 360.0 / deg_per_s
+        k = max(k_from, int(t_cross / PACKET_DURATION_S) - 2)
+        prev = self._block_rel(k - 1, last_block)
         while True:
             first = self._block_rel(k, 0)
             last = self._block_rel(k, last_block)
