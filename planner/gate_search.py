@@ -47,6 +47,11 @@ CONE_IN_GATE_FRACTION = 0.3
 """A cone nearer an edge than this fraction of the edge's length, abreast of its middle
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
+LANE_NARROWING = 0.6
+"""A gate that leaves less track across the path than this fraction of the median of the
+path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
+rules' 3 m at least), and without colours the search's last step otherwise often runs along a
+boundary (its midpoint on the boundary: nothing further on refutes it)."""
 MAX_TURN_RAD = 1.2
 """Largest change of heading from one midpoint to the next."""
 SEARCH_RADIUS_M = 30.0
@@ -77,6 +82,8 @@ class _Partial:
     gates: tuple[tuple[int, int], ...]
     """(left cone, right cone) of each gate crossed, in order."""
     done: bool = False
+    across_m: tuple[float, ...] = ()
+    """The track each gate leaves across the path's step through it (m), in order."""
 
 
 def gate_search_path(
@@ -306,7 +313,8 @@ class _Search:
             if entry is not None:
                 (a, b), mid, sides = entry
                 out.append(_Partial(((float(mid[0]), float(mid[1])),), t0, (a, b), yaw, 0.0,
-                                    frozenset([t0]), (sides,)))
+                                    frozenset([t0]), (sides,),
+                                    across_m=(self._across_m(a, b, yaw),)))
             else:
                 out.append(_Partial((origin,), t0, (-1, -1), yaw, 0.0, frozenset([t0]), ()))
             return out
@@ -331,11 +339,13 @@ class _Search:
                     continue
                 step_yaw = math.atan2(rel[1], rel[0])
                 turn = abs(math.remainder(step_yaw - yaw, 2.0 * math.pi))
-                if turn > MAX_TURN_RAD or self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
+                across = self._across_m(a, b, step_yaw)
+                if turn > MAX_TURN_RAD or across < MIN_ACROSS_M:
                     continue
                 out.append(_Partial(
                     (origin, (float(mid[0]), float(mid[1]))), t, (a, b), step_yaw,
-                    cost + TURN_COST_PER_RAD2 * turn ** 2, frozenset([t]), (sides,)))
+                    cost + TURN_COST_PER_RAD2 * turn ** 2, frozenset([t]), (sides,),
+                    across_m=(across,)))
         # the way to the first gate earns nothing, and a path that starts at a gate further on
         # than the nearest pays for the way it skips (it would save the nearer gates' costs)
         reach = [math.hypot(p.points[1][0] - origin[0], p.points[1][1] - origin[1]) for p in out]
@@ -364,8 +374,11 @@ class _Search:
             turn = abs(math.remainder(step_yaw - p.yaw_rad, 2.0 * math.pi))
             if turn > MAX_TURN_RAD:
                 continue
-            if self._across_m(a, b, step_yaw) < MIN_ACROSS_M:
+            across = self._across_m(a, b, step_yaw)
+            if across < MIN_ACROSS_M:
                 continue  # crossed so obliquely that it leaves no track width: a boundary
+            if len(p.across_m) >= 2 and across < LANE_NARROWING * float(np.median(p.across_m)):
+                continue  # the lane narrows to a fraction of itself: along a boundary
             if self._cone_in_the_gate(a, b, tri[k]):
                 continue  # it spans a boundary (a cone stands in it): two lanes, not one
             if self._back_the_way_in(a, b, step):
@@ -376,7 +389,8 @@ class _Search:
             out.append(_Partial(
                 p.points + ((float(mid[0]), float(mid[1])),), nxt, (a, b), step_yaw,
                 p.cost + cost + TURN_COST_PER_RAD2 * turn ** 2 - LENGTH_REWARD_PER_M * length,
-                p.triangles | {nxt}, p.gates + (sides,), done=nxt == -1))
+                p.triangles | {nxt}, p.gates + (sides,), done=nxt == -1,
+                across_m=p.across_m + (across,)))
         return out
 
     def run(self, seeds: list[_Partial]) -> _Partial | None:

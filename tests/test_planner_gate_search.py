@@ -221,3 +221,33 @@ def test_no_gate_spans_an_infield_past_the_mapped_end_of_a_row(monkeypatch) -> N
     monkeypatch.setattr(gs, "CONE_IN_GATE_FRACTION", 0.0)  # without the rule it did
     pts, _ = gate_search_path(xy, col, start, np.pi, 3.5, 2.5, None)
     assert np.any(pts[:, 1] < 5.0), pts
+
+
+def test_without_colours_the_march_stops_at_a_lone_cone() -> None:
+    """Past the last gate of both sides only the left boundary is mapped (the right one is
+    hidden, round a bend). Coloured, the left cones say which side they bound and the march
+    goes on half a track width inside them; without colours their side is a guess, and the
+    path ends at the last gate of two cones."""
+    x = np.arange(0.0, 9.0, 4.0)
+    lane = np.r_[np.c_[x, np.full(len(x), HALF_WIDTH_M)], np.c_[x, np.full(len(x), -HALF_WIDTH_M)]]
+    xl = np.arange(12.0, 25.0, 4.0)
+    cones = np.r_[lane, np.c_[xl, np.full(len(xl), HALF_WIDTH_M)]]
+    sides = np.r_[np.full(len(x), BLUE), np.full(len(x), YELLOW), np.full(len(xl), BLUE)]
+    coloured = exploration_path(cones, sides, (-1.0, 0.0), 0.0, track_width_m=3.5)
+    blind = exploration_path(cones, np.full(len(cones), UNKNOWN), (-1.0, 0.0), 0.0,
+                             track_width_m=3.5)
+    assert coloured[-1, 0] > 18.0 and np.all(np.abs(coloured[:, 1]) < HALF_WIDTH_M)
+    assert blind[-1, 0] < 12.0 and np.all(np.abs(blind[:, 1]) < HALF_WIDTH_M)
+
+
+def test_without_colours_the_last_gate_is_not_an_edge_along_a_boundary() -> None:
+    """A 4 m lane whose left boundary turns right across the path's way ahead (a bend whose
+    inner side is not mapped yet): the edge from the lane's last left cone to the turned one
+    leaves 2.2 m across the path, more than the shortest gate but little more than half the
+    lane. That is the boundary seen at a slant, and the path does not end on it."""
+    x = np.arange(0.0, 13.0, 4.0)
+    lane = np.r_[np.c_[x, np.full(len(x), 2.0)], np.c_[x, np.full(len(x), -2.0)]]
+    cones = np.r_[lane, [[14.2, -0.2]]]
+    path, _ = gate_search_path(cones, np.full(len(cones), UNKNOWN), np.array([-1.0, 0.0]),
+                               0.0, 4.0)
+    assert path[-1, 0] <= 12.0 + 1e-9
