@@ -366,6 +366,29 @@ class SlamConfig:
 
 
 @dataclass(slots=True)
+class TentativeConfig:
+    """Camera cones beyond the LiDAR's landmarks, published for the exploring planner
+    (:mod:`mapper.tentative_cones`, issue 45): never in the SLAM, gone at the map freeze."""
+
+    enabled: bool = True
+    landmark_gate_m: float = 1.0
+    """A camera cone this near (m) a landmark is that landmark (its colour vote only)."""
+    gate_m: float = 1.0
+    """Camera cones of successive frames this near (m) are one tentative cone."""
+    min_frames: int = 2
+    """Frames a tentative cone must be seen in before it is published."""
+    max_age_s: float = 0.5
+    """A tentative cone the camera has not seen for this long (s) goes."""
+    min_range_m: float = 10.0
+    """A tentative cone nearer the car than this (m) goes: the LiDAR maps a real cone there
+    (14-15 m ahead with the simulated VLP-16)."""
+    sigma_m: float = 0.3
+    """Position standard deviation (m) published with it: the simulated camera's at 15-20 m."""
+    confidence: float = 0.5
+    """Its confidence in the :class:`~common.messages.ConeMap` (a SLAM landmark's is 1)."""
+
+
+@dataclass(slots=True)
 class MapperConfig:
     """Which backend maps, and its parameters."""
 
@@ -375,3 +398,4 @@ class MapperConfig:
     object_filter: ObjectFilterConfig = field(default_factory=ObjectFilterConfig)
     ukf: UkfConfig = field(default_factory=UkfConfig)
     fusion: FusionConfig = field(default_factory=FusionConfig)
+    tentative: TentativeConfig = field(default_factory=TentativeConfig)

@@ -29,10 +29,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from common.car import CarConfig
-from common.conventions import LocalTangentFrame, WorldFrame, wrap_angle
+from common.conventions import LocalTangentFrame, WorldFrame, vehicle_to_world, wrap_angle
 from common.messages import (
     CameraCones,
     ConeColour,
+    ConeDetection,
     ConeMap,
     GpsFix,
     ImuSample,
@@ -55,6 +56,7 @@ from mapper.motion import predict_forward
 from mapper.object_filter import ObjectFilter
 from mapper.slam_backend import SlamBackend
 from mapper.smoother_backend import SmootherBackend
+from mapper.tentative_cones import TentativeCones, with_tentative
 from mapper.time_smoother import N_COLOURS
 from mapper.ukf_localiser import UkfLocaliser
 from mapper.wheel_scale import WheelScaleEstimator
@@ -108,6 +110,11 @@ class Mapper:
         self.loop_closed = False
         self._cones_cache: ConeMap = ConeMap.empty()
         self._cones_dirty = False
+        self.tentative = TentativeCones(config.tentative)
+        """Camera cones beyond the landmarks, published while exploring
+        (:mod:`mapper.tentative_cones`)."""
+        self._published: tuple[ConeMap, ConeMap] | None = None
+        """(the landmarks, the landmarks with the tentative cones) last published."""
         self._counts: dict[str, Counter[str]] = {}
         self._state = MapState(0.0, PoseEstimate(0.0, 0.0, 0.0, 0.0), ConeMap.empty(),
                                backend=self.backend.name)
@@ -181,6 +188,8 @@ class Mapper:
             self.ukf.set_map(cone_map)
         self.localiser = MapLocaliser(self.ukf, cone_map, self.config.fusion.colour_gate_m)
         self._cones_dirty = True
+        self.tentative.clear()
+        self._published = None
         log.info("map frozen with %d cones", len(cone_map))
 
     @property
@@ -254,6 +263,8 @@ class Mapper:
                      and int(ConeColour.UNKNOWN) < int(c.colour) < N_COLOURS]
             if cones:
                 self._cones_dirty |= self.estimator.add_colours(cones)
+                if self.config.tentative.enabled and not self.map_frozen:
+                    self._add_tentative(cones, r.timestamp_s)
 
     def _on_gps(self, fix: GpsFix) -> None:
         cfg = self.config.ukf
@@ -343,6 +354,27 @@ class Mapper:
             self._cones_cache = self.estimator.cone_map()
         return self._cones_cache
 
+    def _add_tentative(self, cones: Sequence[ConeDetection], t_s: float) -> None:
+        """A camera frame's cones (vehicle frame at ``t_s``, colours known) to the tentative
+        cones, at the estimator's pose of that time."""
+        pose = self.estimator.pose()
+        xy = np.array([(c.x_m, c.y_m) for c in cones], np.float64)
+        world = vehicle_to_world(xy, pose.x_m, pose.y_m, pose.yaw_rad).reshape(-1, 2)
+        self.tentative.add(world, np.array([int(c.colour) for c in cones], np.int64),
+                           np.array([c.confidence for c in cones], np.float64), t_s,
+                           self._cones().xy_m, (pose.x_m, pose.y_m))
+        self._published = None
+
+    def _published_cones(self) -> ConeMap:
+        """The landmarks, and while exploring the tentative cones after them."""
+        landmarks = self._cones()
+        if self.map_frozen or not self.config.tentative.enabled:
+            return landmarks
+        if self._published is None or self._published[0] is not landmarks:
+            self._published = (landmarks, with_tentative(
+                landmarks, self.tentative.cone_map(landmarks.xy_m)))
+        return self._published[1]
+
     def _make_state(self, now_s: float) -> MapState:
         lagged = self.estimator.lagged(now_s)
         recent = self._recent_imu
@@ -359,5 +391,5 @@ class Mapper:
         pose = PoseEstimate(t, float(pred[0]), float(pred[1]), float(pred[2]), float(pred[3]),
                             float(pred[4]), float(pred[5]),
                             np.asarray(lagged.covariance, np.float64).copy())
-        return MapState(t, pose, self._cones(), loop_closed=self.loop_closed,
+        return MapState(t, pose, self._published_cones(), loop_closed=self.loop_closed,
                         backend=self.backend.name, map_frozen=self.map_frozen)

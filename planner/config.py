@@ -104,13 +104,14 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
-    exploration_speed_mps: float = 8.0
-    """Top speed (m/s) while exploring an unseen track from its cones. Below it, what sets the
-    pace is being able to stop within the track seen so far (``exploration_late_cover_s`` and
-    the supervisor's stop; :mod:`planner.exploration_speed`), the friction circle and the
-    steering on the path; the invariant alone binds at 8-10 m/s where the cones are seen 10-12
-    m ahead. 12 m/s took peanut's trackdrive (seeds 1 and 3, 3 laps) into "no feasible path"
-    after the explored lap, with a cone hit; 8 m/s drives it clean."""
+    exploration_speed_mps: float = 15.0
+    """Top speed (m/s) while exploring an unseen track from its cones: a sanity cap. Below it,
+    what sets the pace is being able to stop within the track seen so far
+    (``exploration_late_cover_s`` and the supervisor's stop; :mod:`planner.exploration_speed`),
+    the friction circle and the steering on the path; with the cones mapped 14-15 m ahead
+    (issue 45) the invariant alone binds at about 10-11 m/s. 12 m/s once took peanut's
+    trackdrive (seeds 1 and 3, 3 laps) into "no feasible path" after the explored lap; it did
+    not come back at this code (both clean at 12 and at 15 m/s)."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it
@@ -145,10 +146,14 @@ class PlannerConfig:
     """While exploring, a loop found in the cones is the track only when it passes this near
     the start (m): a loop of part of the track (one lobe of a figure-like layout, closed
     through another stretch's cones) is not."""
-    loop_unseen_max_m: float = 15.0
+    loop_unseen_max_m: float = 5.0
     """While exploring, a loop found in the cones is the track only when the car has driven
     all but this much of its length (m): earlier, a loop through cones seen across the track
-    (a narrow waist, an infield) cuts a bend whose outer side is not mapped yet."""
+    (a narrow waist, an infield) cuts a bend whose outer side is not mapped yet. And the loop
+    is raced at once, on a map whose loop is not closed yet: with cones mapped 15-19 m ahead
+    (issue 45), 15 m let FSG's trackdrive race its last 15 m of the explored lap on the drifted
+    map (0.27 m off the start's cones) and hit the start line's cones (1 lap, seeds 8-13:
+    1 of 6 clean at a 15 m/s exploring cap; 6 of 6 at 5 m)."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     lap_min_m: float = 15.0

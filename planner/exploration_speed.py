@@ -8,7 +8,7 @@ safety supervisor's controlled stop (its reaction, margin and deceleration: the 
 plan must leave, handed in by Main) within the frame's remaining length. Nothing else caps the
 pace but a sanity top speed (``planner.exploration_speed_mps``) and the friction circle, the
 steering's rate and its lock on the path's curvature (:mod:`planner.speed_profile`). How far
-ahead the cones are seen (the perception's range, about 11-12 m from the car with the
+ahead the cones are seen (the perception's range, about 14-15 m from the car with the
 simulated VLP-16 low at the front) thus sets the pace on the straights.
 
 The controller asks for the profile's speed a little ahead of the car (its speed preview,

@@ -99,7 +99,7 @@ def test_the_steering_rate_reads_a_smoothed_curvature_the_friction_circle_the_pe
 def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
         colour: bool) -> None:
     """The invariant in the planner itself, over the growing cone views of a lap of the
-    built-in track (``bench plan_local``'s, the cones mapped 12 m ahead in the camera's field
+    built-in track (``bench plan_local``'s, the cones mapped 15 m ahead in the camera's field
     of view): wherever the car is, the speed the profile asks of it, from the car to as far
     ahead as the controller reads it, leaves the room for the late cover and the
     supervisor's stop before the end of the track seen; and the pace is not a constant."""
@@ -111,12 +111,11 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
     from simulator.tracks import load_track
 
     config = AppConfig()
-    # a sanity cap above the invariant's pace, so that the invariant is what binds
-    config.planner.exploration_speed_mps = 12.0
+    assert config.planner.exploration_speed_mps >= 12.0  # the invariant binds, not the cap
     safety = config.controller.safety
     late_s = config.planner.exploration_late_cover_s
     track = load_track("default")
-    views = cone_views(track, step_m=3.0, range_m=12.0, limit=60)
+    views = cone_views(track, step_m=3.0, range_m=15.0, limit=60)
     colours = np.asarray(track.colours, np.int64)
     if not colour:
         colours = np.full_like(colours, int(ConeColour.UNKNOWN))
@@ -139,4 +138,4 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
         assert np.all(need[v > 0.0] <= room + 0.05), (view.t_s, room, v)
         asked.append(float(v[0]))
     assert len(asked) > 30
-    assert max(asked) > 8.0  # past the constant cap it had (8 m/s)
+    assert max(asked) > 9.0  # past the constant cap it had (8 m/s)

@@ -1,0 +1,133 @@
+"""Tentative cones: the camera's cones beyond the LiDAR's reach, for the exploring planner.
+
+While the car explores an unseen track its speed is set by how much of the track it has
+mapped (:mod:`planner.exploration_speed`), and the LiDAR's landmarks begin only 14-15 m ahead
+(the simulated VLP-16 is low at the front). The camera sees cones further (20 m in the
+simulator), less exactly (about 0.3 m at 15-20 m, where the LiDAR is right to 1 cm). A camera
+cone that no landmark explains is kept here, in the world frame at the pose of the image:
+the same cone in the next frames (within ``gate_m``) averages its position and votes its
+colour. Once seen in ``min_frames`` frames it is published beside the landmarks with
+confidence ``confidence`` (< 1: not a landmark), until a landmark comes within
+``landmark_gate_m`` of it (the LiDAR has it now), the camera has not seen it for
+``max_age_s``, or it is nearer the car than ``min_range_m`` (the LiDAR maps a real cone there;
+a phantom must not stand in front of the car). The SLAM never takes them: the map the car
+localises on is the LiDAR's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from common.messages import ConeMap, ConeSize
+from mapper.colour_votes import voted_colours
+from mapper.config import TentativeConfig
+from mapper.time_smoother import N_COLOURS
+
+FloatArray = NDArray[np.float64]
+_FAR = 1.0e9
+
+
+class TentativeCones:
+    """Camera cones no landmark explains (module docstring): positions (K, 2) (m, world),
+    frames seen (K,), colour votes (K, N_COLOURS), last time seen (K,) (s)."""
+
+    def __init__(self, config: TentativeConfig) -> None:
+        self.config = config
+        self.xy_m = np.zeros((0, 2))
+        self.frames = np.zeros(0, np.int64)
+        self.votes = np.zeros((0, N_COLOURS))
+        self.last_seen_s = np.zeros(0)
+        self.ids = np.zeros(0, np.int64)
+        self._next_id = -1
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    def add(self, world_xy_m: FloatArray, colours: NDArray[np.int64],
+            confidences: FloatArray, t_s: float, landmarks_xy_m: FloatArray,
+            car_xy_m: tuple[float, float]) -> None:
+        """One camera frame's cones (n, 2) (m, world frame at the image's pose), their
+        :class:`ConeColour` (n,) and confidence (n,) at ``t_s``; ``landmarks_xy_m`` (M, 2) the
+        map's landmarks, ``car_xy_m`` the car's position (m)."""
+        c = self.config
+        xy = np.asarray(world_xy_m, np.float64).reshape(-1, 2)
+        explained = _near(xy, landmarks_xy_m, c.landmark_gate_m)
+        xy, colours, confidences = xy[~explained], colours[~explained], confidences[~explained]
+        taken = np.zeros(len(xy), bool)
+        if len(xy) and len(self):
+            d = np.hypot(xy[:, None, 0] - self.xy_m[None, :, 0],
+                         xy[:, None, 1] - self.xy_m[None, :, 1])
+            cost = np.where(d <= c.gate_m, d, _FAR)
+            rows, cols = linear_sum_assignment(cost)
+            good = cost[rows, cols] < _FAR
+            rows, cols = rows[good], cols[good]
+            n = self.frames[cols][:, None].astype(np.float64)
+            self.xy_m[cols] = (self.xy_m[cols] * n + xy[rows]) / (n + 1.0)
+            self.frames[cols] += 1
+            self.votes[cols, colours[rows]] += confidences[rows]
+            self.last_seen_s[cols] = t_s
+            taken[rows] = True
+        new = np.flatnonzero(~taken)
+        if len(new):
+            votes = np.zeros((len(new), N_COLOURS))
+            votes[np.arange(len(new)), colours[new]] = confidences[new]
+            self.xy_m = np.vstack([self.xy_m, xy[new]])
+            self.frames = np.concatenate([self.frames, np.ones(len(new), np.int64)])
+            self.votes = np.vstack([self.votes, votes])
+            self.last_seen_s = np.concatenate([self.last_seen_s, np.full(len(new), t_s)])
+            self.ids = np.concatenate([self.ids, self._next_id - np.arange(len(new))])
+            self._next_id -= len(new)
+        near_car = np.hypot(self.xy_m[:, 0] - car_xy_m[0],
+                            self.xy_m[:, 1] - car_xy_m[1]) < c.min_range_m
+        self._keep(~(near_car | _near(self.xy_m, landmarks_xy_m, c.landmark_gate_m)
+                     | (t_s - self.last_seen_s > c.max_age_s)))
+
+    def clear(self) -> None:
+        """Forget them all (the map is frozen: the track is known)."""
+        self._keep(np.zeros(len(self), bool))
+
+    def cone_map(self, landmarks_xy_m: FloatArray) -> ConeMap:
+        """Those seen in ``min_frames`` frames and still no landmark's, as a :class:`ConeMap`
+        (covariance ``sigma_m`` squared, size unknown, confidence ``confidence``, ids < 0)."""
+        c = self.config
+        show = (self.frames >= c.min_frames) & ~_near(self.xy_m, landmarks_xy_m,
+                                                       c.landmark_gate_m)
+        n = int(np.count_nonzero(show))
+        if n == 0:
+            return ConeMap.empty()
+        return ConeMap(xy_m=self.xy_m[show].copy(),
+                       covariance=np.tile(np.eye(2) * c.sigma_m ** 2, (n, 1, 1)),
+                       colour=voted_colours(self.votes[show]),
+                       size=np.full(n, int(ConeSize.UNKNOWN), np.int64),
+                       confidence=np.full(n, c.confidence), ids=self.ids[show].copy())
+
+    def _keep(self, keep: NDArray[np.bool_]) -> None:
+        self.xy_m = self.xy_m[keep]
+        self.frames = self.frames[keep]
+        self.votes = self.votes[keep]
+        self.last_seen_s = self.last_seen_s[keep]
+        self.ids = self.ids[keep]
+
+
+def with_tentative(landmarks: ConeMap, tentative: ConeMap) -> ConeMap:
+    """The landmarks followed by the tentative cones, one :class:`ConeMap`."""
+    if len(tentative) == 0:
+        return landmarks
+    return ConeMap(xy_m=np.vstack([landmarks.xy_m, tentative.xy_m]),
+                   covariance=np.concatenate([landmarks.covariance, tentative.covariance]),
+                   colour=np.concatenate([landmarks.colour, tentative.colour]),
+                   size=np.concatenate([landmarks.size, tentative.size]),
+                   confidence=np.concatenate([landmarks.confidence, tentative.confidence]),
+                   ids=np.concatenate([landmarks.ids, tentative.ids]))
+
+
+def _near(xy_m: FloatArray, others_xy_m: FloatArray, gate_m: float) -> NDArray[np.bool_]:
+    """Which points (n, 2) have one of ``others_xy_m`` (m, 2) within ``gate_m`` (m)."""
+    if len(xy_m) == 0 or len(others_xy_m) == 0:
+        return np.zeros(len(xy_m), bool)
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(others_xy_m).query(xy_m, distance_upper_bound=gate_m)
+    return np.asarray(np.isfinite(d), bool)

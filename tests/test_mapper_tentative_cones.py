@@ -1,0 +1,87 @@
+"""Tentative cones (issue 45): the camera's cones beyond the LiDAR's landmarks, published for
+the exploring planner, never in the map the car localises on."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.messages import CameraCones, ConeColour, ConeDetection, ConeMap
+from mapper.config import MapperConfig, TentativeConfig
+from mapper.tentative_cones import TentativeCones, with_tentative
+
+BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
+NO_LANDMARKS = np.zeros((0, 2))
+
+
+def _frame(tc: TentativeCones, xy: list[tuple[float, float]], t_s: float,
+           landmarks: np.ndarray = NO_LANDMARKS, colour: int = BLUE,
+           car: tuple[float, float] = (0.0, 0.0)) -> None:
+    n = len(xy)
+    tc.add(np.array(xy, np.float64).reshape(-1, 2), np.full(n, colour, np.int64),
+           np.ones(n), t_s, landmarks, car)
+
+
+def test_a_far_camera_cone_is_published_once_seen_twice_at_its_mean_position() -> None:
+    tc = TentativeCones(TentativeConfig())
+    _frame(tc, [(18.0, 2.0)], 0.0)
+    assert len(tc.cone_map(NO_LANDMARKS)) == 0  # one frame: not yet
+    _frame(tc, [(18.4, 1.8)], 0.05)
+    cones = tc.cone_map(NO_LANDMARKS)
+    assert len(cones) == 1
+    assert np.allclose(cones.xy_m[0], [18.2, 1.9])
+    assert cones.colour[0] == BLUE
+    assert cones.confidence[0] < 1.0 and cones.ids[0] < 0
+    assert np.allclose(cones.covariance[0], np.eye(2) * TentativeConfig().sigma_m ** 2)
+
+
+def test_a_landmark_takes_over_and_a_near_or_unseen_one_goes() -> None:
+    cfg = TentativeConfig()
+    tc = TentativeCones(cfg)
+    _frame(tc, [(18.0, 2.0), (18.0, -2.0), (25.0, 2.0)], 0.0)
+    _frame(tc, [(18.0, 2.0), (18.0, -2.0), (25.0, 2.0)], 0.05)
+    assert len(tc.cone_map(NO_LANDMARKS)) == 3
+    # the LiDAR has mapped the first: it is that landmark's now
+    landmark = np.array([[18.3, 2.1]])
+    assert len(tc.cone_map(landmark)) == 2
+    # a camera cone on a landmark starts no tentative cone
+    _frame(tc, [(18.2, 2.0)], 0.1, landmarks=landmark)
+    assert not np.any(np.hypot(*(tc.xy_m - [18.0, 2.0]).T) < 0.5)
+    # the car has come near the second (the LiDAR maps a real cone there), and the third
+    # has not been seen for longer than max_age_s
+    _frame(tc, [(30.0, 0.0)], 0.1 + cfg.max_age_s + 0.01, car=(10.0, -2.0))
+    assert not np.any(np.hypot(*(tc.xy_m - [18.0, -2.0]).T) < 0.5)
+    assert not np.any(np.hypot(*(tc.xy_m - [25.0, 2.0]).T) < 0.5)
+
+
+def test_the_colour_is_the_votes_and_with_tentative_appends() -> None:
+    tc = TentativeCones(TentativeConfig())
+    for k, colour in enumerate((YELLOW, BLUE)):
+        _frame(tc, [(18.0, -2.0)], 0.05 * k, colour=colour)
+    tentative = tc.cone_map(NO_LANDMARKS)
+    assert tentative.colour.tolist() == [int(ConeColour.UNKNOWN)]  # no lead
+    _frame(tc, [(18.0, -2.0)], 0.2, colour=YELLOW)
+    tentative = tc.cone_map(NO_LANDMARKS)
+    assert tentative.colour.tolist() == [YELLOW]
+    landmarks = ConeMap(np.array([[5.0, 2.0]]), np.eye(2)[None] * 1e-4, np.array([BLUE]),
+                        np.array([1]), np.array([1.0]), np.array([7]))
+    both = with_tentative(landmarks, tentative)
+    assert len(both) == 2 and both.ids.tolist() == [7, int(tentative.ids[0])]
+    assert with_tentative(landmarks, ConeMap.empty()) is landmarks
+
+
+def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() -> None:
+    from common.car import CarConfig
+    from mapper.mapper import Mapper
+
+    config = MapperConfig()
+    mapper = Mapper(config, CarConfig())
+    cones = tuple(ConeDetection(0.0, 18.0, y, colour=ConeColour.BLUE, confidence=0.9)
+                  for y in (2.0, -2.0))
+    mapper._apply(CameraCones(0.0, cones))
+    mapper._apply(CameraCones(0.05, tuple(ConeDetection(0.05, c.x_m, c.y_m, colour=c.colour,
+                                                        confidence=0.9) for c in cones)))
+    state = mapper._make_state(0.05)
+    assert len(state.cones) == 2 and np.all(state.cones.confidence < 1.0)
+    mapper.freeze(ConeMap.empty())
+    assert len(mapper._make_state(0.1).cones) == 0
+    assert len(mapper.tentative) == 0
