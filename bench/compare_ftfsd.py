@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import argparse
 import copy
+import importlib
 import logging
 import math
 import time
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,9 +61,20 @@ def ftfsd_cone_lists(view: ConeView, colours: NDArray[np.int64]) -> list[NDArray
     return [xy[col == int(c)].reshape(-1, 2) for c in order]
 
 
+def _ftfsd() -> Any:
+    """The ``fsd_path_planning`` package, imported by name: it is an optional tool beside this
+    project, not one of its dependencies."""
+    try:
+        return importlib.import_module("fsd_path_planning")
+    except ImportError:
+        raise SystemExit("ft-fsd-path-planning is not installed here: install it beside the "
+                         "project as the docstring of bench/compare_ftfsd.py says") from None
+
+
 def measure_ftfsd(track: Track, views: list[ConeView], colour: bool) -> dict[str, float | int]:
     """ft-fsd over ``views``: calls, paths, paths inside, median and p99 time (ms)."""
-    from fsd_path_planning import MissionTypes, PathPlanner
+    ftfsd = _ftfsd()
+    MissionTypes, PathPlanner = ftfsd.MissionTypes, ftfsd.PathPlanner  # noqa: N806
 
     colours = np.asarray(track.colours, np.int64)
     if not colour:
@@ -100,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise-m", type=float, default=0.05, help="cone position noise (m)")
     parser.add_argument("--seed", type=int, default=1, help="noise seed")
     args = parser.parse_args(argv)
+    _ftfsd()  # before the long part: a missing package is said at once
     logging.basicConfig(level=logging.WARNING)
     logging.getLogger("planner").setLevel(logging.ERROR)
     config = copy.deepcopy(load_config(None))

@@ -239,15 +239,3 @@ def test_without_colours_the_march_stops_at_a_lone_cone() -> None:
     assert coloured[-1, 0] > 18.0 and np.all(np.abs(coloured[:, 1]) < HALF_WIDTH_M)
     assert blind[-1, 0] < 12.0 and np.all(np.abs(blind[:, 1]) < HALF_WIDTH_M)
 
-
-def test_without_colours_the_last_gate_is_not_an_edge_along_a_boundary() -> None:
-    """A 4 m lane whose left boundary turns right across the path's way ahead (a bend whose
-    inner side is not mapped yet): the edge from the lane's last left cone to the turned one
-    leaves 2.2 m across the path, more than the shortest gate but little more than half the
-    lane. That is the boundary seen at a slant, and the path does not end on it."""
-    x = np.arange(0.0, 13.0, 4.0)
-    lane = np.r_[np.c_[x, np.full(len(x), 2.0)], np.c_[x, np.full(len(x), -2.0)]]
-    cones = np.r_[lane, [[14.2, -0.2]]]
-    path, _ = gate_search_path(cones, np.full(len(cones), UNKNOWN), np.array([-1.0, 0.0]),
-                               0.0, 4.0)
-    assert path[-1, 0] <= 12.0 + 1e-9
