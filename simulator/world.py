@@ -36,7 +36,7 @@ from simulator.config import WorldConfig
 from simulator.faults import Fault, parse_faults
 from simulator.gps_model import GpsModel
 from simulator.imu_model import ImuModel
-from simulator.lidar_model import LidarModel
+from simulator.lidar_model import EMULATOR_LOOKAHEAD_S, LidarModel
 from simulator.track import Track
 from simulator.vehicle import Vehicle
 
@@ -91,7 +91,8 @@ class SimWorld:
     the car selects in ``MISSION_SELECT`` unless ``config.sim.mission_select`` says otherwise
     (None: trackdrive). ``lidar_sweep_units``: the LiDAR's packets come as one raw unit per
     sweep (:class:`~simulator.lidar_model.LidarModel`; the same bytes, parsed in one piece);
-    False: one unit per packet, when they have to be sent one datagram each (the emulator).
+    False: one unit per packet, when they have to be sent one datagram each (the emulator),
+    cast in batches reaching :data:`~simulator.lidar_model.EMULATOR_LOOKAHEAD_S` ahead.
 
     The car's side of ``AS_STATUS``: :meth:`receive_can` decodes the frames the stack sends;
     ``as_status`` is the last one, ``as_transitions`` every change of its AS state as
@@ -117,6 +118,8 @@ class SimWorld:
                 self.models[name] = cls(config, np.random.default_rng(child))
         if "lidar" in self.models:
             self.models["lidar"].sweep_units = lidar_sweep_units
+            if not lidar_sweep_units:
+                self.models["lidar"].lookahead_s = EMULATOR_LOOKAHEAD_S
         self._step_index = 0
         self._command: ActuatorCommand | None = None
         self.cones_hit: set[int] = set()
