@@ -74,6 +74,7 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     from mapper.mapper import Mapper
 
     config = MapperConfig()
+    config.tentative.enabled = True
     mapper = Mapper(config, CarConfig())
     cones = tuple(ConeDetection(0.0, 18.0, y, colour=ConeColour.BLUE, confidence=0.9)
                   for y in (2.0, -2.0))
@@ -85,3 +86,8 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     mapper.freeze(ConeMap.empty())
     assert len(mapper._make_state(0.1).cones) == 0
     assert len(mapper.tentative) == 0
+    # off (the default): the landmarks alone
+    off = Mapper(MapperConfig(), CarConfig())
+    off._apply(CameraCones(0.0, cones))
+    off._apply(CameraCones(0.05, cones))
+    assert len(off._make_state(0.05).cones) == 0
