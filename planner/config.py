@@ -150,7 +150,7 @@ class PlannerConfig:
     """While exploring, a loop found in the cones is the track only when the car has driven
     all but this much of its length (m): earlier, a loop through cones seen across the track
     (a narrow waist, an infield) cuts a bend whose outer side is not mapped yet. And the loop
-    is raced at once, on a map whose loop is not closed yet: with cones mapped 15-19 m ahead
+    is raced at once, on a map whose loop is not closed yet: with cones mapped 14-15 m ahead
     (issue 45), 15 m let FSG's trackdrive race its last 15 m of the explored lap on the drifted
     map (0.27 m off the start's cones) and hit the start line's cones (1 lap, seeds 8-13:
     1 of 6 clean at a 15 m/s exploring cap; 6 of 6 at 5 m)."""
