@@ -105,7 +105,8 @@ class RawBytes:
     """One raw unit of a sensor's wire format, exactly as received.
 
     ``source`` names the receiver (``gps``, ``imu``, ``lidar``, ``camera``); ``payload`` is one
-    NMEA sentence (with CR LF), one IMU packet, one LiDAR UDP datagram or one camera datagram.
+    NMEA sentence (with CR LF), one IMU packet, one LiDAR UDP datagram (the simulator hands over
+    a sweep's packets back to back as one unit of n x 1206 bytes) or one camera datagram.
     """
 
     timestamp_s: float
