@@ -104,14 +104,15 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
-    exploration_speed_mps: float = 15.0
+    exploration_speed_mps: float = 12.0
     """Top speed (m/s) while exploring an unseen track from its cones: a sanity cap. Below it,
     what sets the pace is being able to stop within the track seen so far
     (``exploration_late_cover_s`` and the supervisor's stop; :mod:`planner.exploration_speed`),
     the friction circle and the steering on the path; with the cones mapped 14-15 m ahead
-    (issue 45) the invariant alone binds at about 10-11 m/s. 12 m/s once took peanut's
-    trackdrive (seeds 1 and 3, 3 laps) into "no feasible path" after the explored lap; it did
-    not come back at this code (both clean at 12 and at 15 m/s)."""
+    (issue 45) the invariant alone binds at about 10-11 m/s. 15 m/s took FSSIM's community
+    layout 'thin' (autocross, seed 1) into two cones where its infield runs close beside the
+    lane; 12 m/s drives it clean and costs 0.01 of the explored ratio's median (autocross,
+    shared tracks + gen:1..20, seeds 1-3: 2.192 -> 2.204)."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it
