@@ -18,15 +18,14 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
 from common.messages import ConeMap, ConeSize
 from mapper.colour_votes import voted_colours
 from mapper.config import TentativeConfig
+from mapper.evaluation import match_cones
 from mapper.time_smoother import N_COLOURS
 
 FloatArray = NDArray[np.float64]
-_FAR = 1.0e9
 
 
 class TentativeCones:
@@ -57,12 +56,7 @@ class TentativeCones:
         xy, colours, confidences = xy[~explained], colours[~explained], confidences[~explained]
         taken = np.zeros(len(xy), bool)
         if len(xy) and len(self):
-            d = np.hypot(xy[:, None, 0] - self.xy_m[None, :, 0],
-                         xy[:, None, 1] - self.xy_m[None, :, 1])
-            cost = np.where(d <= c.gate_m, d, _FAR)
-            rows, cols = linear_sum_assignment(cost)
-            good = cost[rows, cols] < _FAR
-            rows, cols = rows[good], cols[good]
+            rows, cols, _ = match_cones(xy, self.xy_m, c.gate_m)
             n = self.frames[cols][:, None].astype(np.float64)
             self.xy_m[cols] = (self.xy_m[cols] * n + xy[rows]) / (n + 1.0)
             self.frames[cols] += 1
