@@ -121,19 +121,11 @@ def steering_rate_speed_limit_mps(
     return np.asarray(np.minimum(np.where(dk > 0.0, v, np.inf), 1e3), np.float64)
 
 
-def _long_accel_available(v: float, kappa: float, a_lon: float, a_lat: float) -> float:
-    """Longitudinal acceleration the friction circle leaves at speed v on curvature kappa."""
-    usage = v * v * abs(kappa) / a_lat
-    if usage >= 1.0:
-        return 0.0
-    return a_lon * math.sqrt(1.0 - usage * usage)
-
-
 def _pass(v_lim: FloatArray, kappa: FloatArray, ds: FloatArray, a_lon: float, a_lat: float,
           v0: float) -> FloatArray:
-    """One pass: v[i+1] <= sqrt(v[i]^2 + 2 a ds[i]), with a from the friction circle
-    (:func:`_long_accel_available`, inlined: the loop runs on Python floats, not numpy
-    scalars, for the planner's every profile)."""
+    """One pass: v[i+1] <= sqrt(v[i]^2 + 2 a ds[i]), with a the longitudinal acceleration the
+    friction circle leaves at v[i] on curvature kappa[i]. The loop runs on Python floats, not
+    numpy scalars: it runs for the planner's every profile."""
     limits, curv, steps = v_lim.tolist(), kappa.tolist(), ds.tolist()
     v = min(float(v0), limits[0])
     out = [v]
