@@ -251,8 +251,7 @@ class Track(TrackLayout):
                       ) -> list[int]:
         """Indices of the cones whose base circle overlaps the convex polygon ``footprint``
         (4,2) (corners in order, world frame)."""
-        poly = (footprint_xy_m if isinstance(footprint_xy_m, list)  # the world's, per step
-                else np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist())
+        poly = _corner_list(footprint_xy_m)
         cx = sum(p[0] for p in poly) / len(poly)
         cy = sum(p[1] for p in poly) / len(poly)
         reach = max(math.hypot(p[0] - cx, p[1] - cy) for p in poly) + LARGE_CONE_RADIUS_M
@@ -271,14 +270,22 @@ class Track(TrackLayout):
         """True when every corner of the footprint (4,2) is beyond a track boundary (the
         Formula Student "off course": all four wheels out). For acceleration and skidpad the
         test uses the distance to the centreline against the local half width."""
-        corners = (footprint_xy_m if isinstance(footprint_xy_m, list)
-                   else np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist())
+        corners = _corner_list(footprint_xy_m)
         for x, y in corners:
             _, lateral, seg = self.locate(x, y, hint)
             half = self.left_half_width_m[seg] if lateral >= 0.0 else self.right_half_width_m[seg]
             if abs(lateral) <= half:
                 return False
         return True
+
+
+def _corner_list(footprint_xy_m: FloatArray | list[tuple[float, float]]
+                 ) -> Sequence[Sequence[float]]:
+    """A footprint's corners as a list of (x, y): the world's per-step list as it is (no numpy
+    round trip), an array (4, 2) converted."""
+    if isinstance(footprint_xy_m, list):
+        return footprint_xy_m
+    return list(np.asarray(footprint_xy_m, np.float64).reshape(-1, 2).tolist())
 
 
 def _circle_touches_polygon(x: float, y: float, r: float,
