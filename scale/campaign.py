@@ -21,8 +21,9 @@ from typing import Any
 
 from common.errors import FsdError
 from orchestrator.config import AppConfig
-from scale.engine import EngineInfo, ray_session
-from scale.runs import COLUMNS, RunRequest, RunSpec, make_row, run_one
+from scale.engine import EngineInfo
+from scale.runners import runner_session
+from scale.runs import COLUMNS, RunRequest, RunSpec
 
 log = logging.getLogger(__name__)
 progress_log = logging.getLogger("progress")
@@ -93,8 +94,10 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
 
 def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
                  address: str | None = None, num_cpus: int | None = None,
-                 progress: bool = True, argv: list[str] | None = None) -> CampaignResult:
-    """Run every combination of ``request`` not yet in ``out_dir/results.csv`` on Ray."""
+                 progress: bool = True, argv: list[str] | None = None,
+                 engine: str = "auto") -> CampaignResult:
+    """Run every combination of ``request`` not yet in ``out_dir/results.csv`` on ``engine``
+    (:mod:`scale.runners`: ``auto`` is a process pool here, Ray with an ``address``)."""
     from tqdm import tqdm
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -117,23 +120,18 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
     wall0 = time.perf_counter()
     rows: list[dict[str, Any]] = [r for r in previous if r["run_id"] in wanted]
     failed = 0
-    with ray_session(address, num_cpus) as engine:
-        import ray
-
-        meta["engine"] = engine.as_dict()
+    with runner_session(engine, address, num_cpus) as runner:
+        meta["engine"] = runner.info.as_dict()
         _write_json(out_dir / CAMPAIGN, meta)
-        task = ray.remote(num_cpus=1, max_retries=0)(run_one)
-        config_ref = ray.put(config)
-        pending: dict[Any, RunSpec] = {task.remote(config_ref, spec): spec for spec in todo}
+        pending: dict[Any, RunSpec] = runner.submit(config, todo)
         sink = _Sink(results)
         bar = tqdm(total=len(specs), initial=skipped, desc="campaign", unit="run",
                    disable=not progress, file=sys.stderr, dynamic_ncols=True)
         try:
             while pending:
-                ready, _ = ray.wait(list(pending), num_returns=1)
-                for ref in ready:
-                    spec = pending.pop(ref)
-                    row = collect_row(ray, ref, spec)
+                for handle in runner.finished(list(pending)):
+                    spec = pending.pop(handle)
+                    row = runner.row(handle, spec)
                     summary = row.pop("summary", None)
                     if summary is not None:
                         _write_json(out_dir / "runs" / f"{spec.run_id}.json",
@@ -154,8 +152,7 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
         finally:
             bar.close()
             sink.close()
-            for ref in pending:
-                ray.cancel(ref, force=True)
+            runner.cancel(list(pending))
     wall_s = time.perf_counter() - wall0
     meta.update(finished=dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
                 wall_s=round(wall_s, 3), ran=len(todo), failed=failed)
@@ -163,17 +160,4 @@ def run_campaign(config: AppConfig, request: RunRequest, out_dir: Path,
     from scale.report import write_report
 
     write_report(out_dir / REPORT, rows, meta)
-    return CampaignResult(rows, len(todo), failed, skipped, wall_s, engine)
-
-
-def collect_row(ray: Any, ref: Any, spec: RunSpec) -> dict[str, Any]:
-    """A finished task's row; a task that died (worker crash, lost node) is a failed row."""
-    try:
-        row: dict[str, Any] = ray.get(ref)
-        return row
-    except Exception as exc:  # the engine's failure is this run's failure, not the campaign's
-        text = str(exc).strip().splitlines()
-        error = f"{type(exc).__name__}: {text[-1] if text else ''}"
-        row = make_row(spec, None, 0.0, error)
-        row["summary"] = None
-        return row
+    return CampaignResult(rows, len(todo), failed, skipped, wall_s, runner.info)

@@ -1,4 +1,5 @@
-"""Subcommands ``campaign`` and ``tune``: many closed-loop runs on Ray (:mod:`scale.engine`).
+"""Subcommands ``campaign`` and ``tune``: many closed-loop runs on a process pool or Ray
+(:mod:`scale.runners`).
 
 Ray and Optuna are imported only when a command runs, so ``--help`` works without them and a
 missing one is a one-line error naming the extra to install.
@@ -41,10 +42,17 @@ def track_names(text: str) -> list[str]:
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
+    from scale.runners import ENGINES
+
+    parser.add_argument("--engine", choices=ENGINES, default="auto",
+                        help="what runs the runs: pool (processes on this machine), ray (a local "
+                             "Ray, or the cluster at --address); auto (default): ray with "
+                             "--address, pool without")
     parser.add_argument("--address", default=None, metavar="ray://HOST:PORT|HOST:PORT",
-                        help="a Ray cluster to run on (default: a local Ray on this machine)")
+                        help="a Ray cluster to run on (default: this machine)")
     parser.add_argument("--cpus", type=positive_int, default=None,
-                        help="CPUs of the local Ray (default: all of this machine's)")
+                        help="processes (pool) or CPUs of the local Ray (default: all of this "
+                             "machine's)")
     parser.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar")
 
@@ -66,7 +74,8 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
     """Add ``campaign`` and ``tune``."""
     campaign = subparsers.add_parser(
         "campaign", parents=[common],
-        help="closed-loop runs over tracks x seeds x faults x settings on Ray, with a report")
+        help="closed-loop runs over tracks x seeds x faults x settings (processes here, or Ray), "
+             "with a report")
     _run_arguments(campaign, None)
     campaign.add_argument("--faults", type=fault_variants, default=[()],
                           metavar="KIND@T[:D],...",
@@ -88,10 +97,12 @@ def register(subparsers: Any, common: argparse.ArgumentParser) -> None:
 def _campaign(args: argparse.Namespace, config: AppConfig) -> int:
     from scale.campaign import run_campaign
     from scale.engine import require_ray
+    from scale.runners import resolve_engine
     from scale.runs import RunRequest, configured, parse_setting
     from simulator.tracks import load_track
 
-    require_ray()
+    if resolve_engine(args.engine, args.address) == "ray":
+        require_ray()
     for track in args.tracks:  # a wrong track is a one-line error before anything starts
         load_track(track)
     settings: list[tuple[tuple[str, Any], ...]] = (
@@ -103,12 +114,12 @@ def _campaign(args: argparse.Namespace, config: AppConfig) -> int:
                          faults=args.faults, settings=settings)
     result = run_campaign(config, request, args.out, address=args.address, num_cpus=args.cpus,
                           progress=args.progress and sys.stderr.isatty(),
-                          argv=sys.argv[1:])
+                          argv=sys.argv[1:], engine=args.engine)
     ok = [r for r in result.rows if not r["error"]]
     print(f"runs={len(result.rows)} ran={result.ran} resumed={result.skipped} "
           f"failed={sum(1 for r in result.rows if r['error'])} "
           f"cones_hit={sum(int(float(r['cones_hit'] or 0)) for r in ok)} "
-          f"engine=ray-{result.engine.version}@{result.engine.address} "
+          f"engine={result.engine.engine}-{result.engine.version}@{result.engine.address} "
           f"nodes={result.engine.nodes} cpus={result.engine.cpus:g}")
     print(f"results: {args.out / 'results.csv'}  report: {args.out / 'report.html'}")
     print(f"wall_s={result.wall_s:.1f}")
@@ -118,7 +129,7 @@ def _campaign(args: argparse.Namespace, config: AppConfig) -> int:
 def _register_tune(subparsers: Any, common: argparse.ArgumentParser) -> None:
     tune = subparsers.add_parser(
         "tune", parents=[common],
-        help="search planner/controller/filter parameters (Optuna) with runs on Ray; writes "
+        help="search planner/controller/filter parameters (Optuna) with runs in parallel; writes "
              "the best setting as a --config TOML")
     tune.add_argument("--space", type=Path, required=True,
                       help="TOML search space (see scale/tune_space.toml)")
@@ -137,10 +148,12 @@ def _register_tune(subparsers: Any, common: argparse.ArgumentParser) -> None:
 
 def _tune(args: argparse.Namespace, config: AppConfig) -> int:
     from scale.engine import require_optuna, require_ray
+    from scale.runners import resolve_engine
     from scale.tune import load_space, tune
     from simulator.tracks import load_track
 
-    require_ray()
+    if resolve_engine(args.engine, args.address) == "ray":
+        require_ray()
     require_optuna()
     params = load_space(args.space, config)
     for track in args.tracks:
@@ -148,7 +161,7 @@ def _tune(args: argparse.Namespace, config: AppConfig) -> int:
     summary = tune(config, params, args.tracks, args.seeds, args.laps or config.mission.laps,
                    args.trials, args.out, mission=args.mission, address=args.address,
                    num_cpus=args.cpus, sampler_seed=args.sampler_seed, batch=args.batch,
-                   base_config=Path(args.config) if args.config else None)
+                   base_config=Path(args.config) if args.config else None, engine=args.engine)
     base, best = summary["baseline"], summary["best"]
     print(f"baseline (trial 0): mean best lap {base['mean_best_lap_s']:.3f} s, "
           f"cones hit {base['cones_hit']}, feasible {base['feasible']}")

@@ -1,10 +1,11 @@
-"""``tune``: Optuna's sampler proposes settings, Ray runs each setting's closed-loop runs.
+"""``tune``: Optuna's sampler proposes settings, a process pool or Ray runs each setting's runs.
 
-Approach: Optuna's ask-and-tell interface in the driver, with a seeded TPE sampler, and Ray
-tasks for the runs (one task per (track, seed) of a trial, as in a campaign). Trials go in
-batches: ask ``batch`` trials, run all their runs at once on Ray, tell the results in trial
-order. That keeps the cluster busy even when a trial has fewer runs than there are CPUs, and the
-study is reproducible (the sampler sees the same history whichever run finishes first). Ray Tune
+Approach: Optuna's ask-and-tell interface in the driver, with a seeded TPE sampler, and the
+campaign's runners for the runs (:mod:`scale.runners`: a process pool here, Ray tasks on a
+cluster; one run per (track, seed) of a trial, as in a campaign). Trials go in batches: ask
+``batch`` trials, run all their runs at once, tell the results in trial order. That keeps the
+CPUs busy even when a trial has fewer runs than there are CPUs, and the study is reproducible
+(the sampler sees the same history whichever run finishes first). Ray Tune
 was not used: it schedules one trial per worker (a trial here is several runs) and brings its
 own experiment folders and dependencies for nothing this needs.
 
@@ -46,9 +47,9 @@ import tomli_w
 from common.config import read_toml
 from common.errors import ConfigError
 from orchestrator.config import AppConfig
-from scale.campaign import collect_row
-from scale.engine import ray_session, require_optuna
-from scale.runs import RunSpec, configured, nested, run_one
+from scale.engine import require_optuna
+from scale.runners import runner_session
+from scale.runs import RunSpec, configured, nested
 
 log = logging.getLogger(__name__)
 
@@ -155,7 +156,8 @@ TRIAL_COLUMNS = ("trial", "value_s", "feasible", "cones_hit", "off_track", "fail
 def tune(config: AppConfig, params: list[Param], tracks: list[str], seeds: list[int],
          laps: int, trials: int, out_dir: Path, mission: str | None = None,
          address: str | None = None, num_cpus: int | None = None, sampler_seed: int = 0,
-         batch: int | None = None, base_config: Path | None = None) -> dict[str, Any]:
+         batch: int | None = None, base_config: Path | None = None, engine: str = "auto"
+         ) -> dict[str, Any]:
     """Run the study; write ``OUT/trials.csv``, ``OUT/best.toml`` and ``OUT/tune.json``;
     return the ``tune.json`` content."""
     optuna = require_optuna()
@@ -168,28 +170,21 @@ def tune(config: AppConfig, params: list[Param], tracks: list[str], seeds: list[
     limit_s = config.run.max_sim_time_s
     results: list[TrialResult] = []
     wall0 = time.perf_counter()
-    with ray_session(address, num_cpus) as engine:
-        import ray
-
-        task = ray.remote(num_cpus=1, max_retries=0)(run_one)
-        config_ref = ray.put(config)
+    with runner_session(engine, address, num_cpus) as runner:
         runs_per_trial = len(tracks) * len(seeds)
-        size = batch or max(1, math.ceil(engine.cpus / runs_per_trial))
+        size = batch or max(1, math.ceil(runner.info.cpus / runs_per_trial))
         with (out_dir / "trials.csv").open("w", newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(TRIAL_COLUMNS)
             while len(results) < trials:
                 asked = [study.ask() for _ in range(min(size, trials - len(results)))]
                 settings = [{p.key: p.suggest(t) for p in params} for t in asked]
-                refs = [[task.remote(config_ref, RunSpec(track, seed, laps, mission, (),
-                                                         tuple(s.items())))
-                         for track in tracks for seed in seeds] for s in settings]
                 # every run of the batch is queued before the first result is read
-                for trial, setting, trial_refs in zip(asked, settings, refs, strict=True):
-                    specs = [RunSpec(track, seed, laps, mission, (), tuple(setting.items()))
-                             for track in tracks for seed in seeds]
-                    rows = [collect_row(ray, ref, spec)
-                            for ref, spec in zip(trial_refs, specs, strict=True)]
+                handles = [runner.submit(config, [
+                    RunSpec(track, seed, laps, mission, (), tuple(s.items()))
+                    for track in tracks for seed in seeds]) for s in settings]
+                for trial, setting, trial_runs in zip(asked, settings, handles, strict=True):
+                    rows = [runner.row(h, spec) for h, spec in trial_runs.items()]
                     result = score(trial.number, setting, rows, limit_s)
                     trial.set_constraint("cones_hit", result.cones_hit)
                     trial.set_constraint("off_track_or_failed", result.off_track + result.failed)
@@ -209,7 +204,7 @@ def tune(config: AppConfig, params: list[Param], tracks: list[str], seeds: list[
         "tracks": tracks, "seeds": seeds, "laps": laps, "trials": len(results),
         "sampler": f"optuna {optuna.__version__} TPESampler(seed={sampler_seed}), "
                    f"batches of {size}",
-        "engine": engine.as_dict(), "wall_s": round(time.perf_counter() - wall0, 1),
+        "engine": runner.info.as_dict(), "wall_s": round(time.perf_counter() - wall0, 1),
         "baseline": _as_dict(baseline),
         "best": _as_dict(best) if best else None,
         "improvement_s": round(baseline.value - best.value, 4) if best else None,

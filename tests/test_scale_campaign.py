@@ -1,6 +1,7 @@
-"""``campaign`` on Ray (issue 18): a campaign's row is the same run as ``sim`` alone (same
-``outputs_sha256``), on a local Ray and on a Ray cluster started here; rows stream to
-results.csv, a second start resumes; a failed run is a row; no Ray is a one-line error."""
+"""``campaign`` (issues 18 and 42): a campaign's row is the same run as ``sim`` alone (same
+``outputs_sha256``), on the default process pool, on a local Ray and on a Ray cluster started
+here; rows stream to results.csv, a second start resumes; a failed run is a row; Ray asked for
+and missing is a one-line error."""
 
 from __future__ import annotations
 
@@ -14,13 +15,17 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
+from typing import cast
 
 import pytest
 
 import main
 from orchestrator.config import AppConfig
 from scale.engine import EngineError, normalise_address, require_ray
+from scale.runners import PoolRunner, resolve_engine
 from scale.runs import COLUMNS, RunSpec, parse_setting, run_one
 from support.shared_data import shared_data, shared_path
 
@@ -66,7 +71,7 @@ def test_campaign_row_is_the_run_alone(local_campaign: Path, alone_sha: str) -> 
     assert row["outputs_sha256"] == alone_sha
     assert int(row["laps_completed"]) == 1 and float(row["best_lap_time_s"]) > 0
     meta = json.loads((local_campaign / "campaign.json").read_text())
-    assert meta["engine"]["engine"] == "ray" and meta["engine"]["version"]
+    assert meta["engine"]["engine"] == "pool" and meta["engine"]["version"]
     assert meta["engine"]["cpus"] == 1 and meta["runs"] == 1
     report = (local_campaign / "report.html").read_text()
     # the campaign names tracks by their resolved path (its workers may start elsewhere)
@@ -80,6 +85,34 @@ def test_second_start_resumes_from_results(local_campaign: Path, capsys: pytest.
     assert _campaign(local_campaign, "--cpus", "1") == 0
     assert "ran=0 resumed=1" in capsys.readouterr().out
     assert _rows(local_campaign) == before
+
+
+@pytest.mark.slow
+def test_local_ray_gives_the_same_rows(local_campaign: Path, tmp_path: Path) -> None:
+    out = tmp_path / "ray"
+    assert _campaign(out, "--engine", "ray", "--cpus", "1") == 0
+    assert [{c: r[c] for c in SAME_RUN_COLUMNS} for r in _rows(out)] == \
+        [{c: r[c] for c in SAME_RUN_COLUMNS} for r in _rows(local_campaign)]
+    assert json.loads((out / "campaign.json").read_text())["engine"]["engine"] == "ray"
+
+
+def test_engine_choice() -> None:
+    assert resolve_engine("auto", None) == "pool"
+    assert resolve_engine("auto", "10.0.0.1:6379") == "ray"
+    assert resolve_engine("ray", None) == "ray"
+    with pytest.raises(EngineError, match="drop --address"):
+        resolve_engine("pool", "10.0.0.1:6379")
+
+
+def test_a_worker_that_died_is_a_failed_row() -> None:
+    """A pool worker killed mid-run (the OOM killer, a crash) fails its run, not the campaign."""
+    future: Future[dict[str, object]] = Future()
+    future.set_exception(BrokenProcessPool("A process in the process pool was terminated "
+                                           "abruptly"))
+    spec = RunSpec(track=OVAL, seed=1, laps=1)
+    row = PoolRunner.row(cast(PoolRunner, None), future, spec)
+    assert row["error"].startswith("BrokenProcessPool: A process") and row["summary"] is None
+    assert row["run_id"] == spec.run_id and row["outputs_sha256"] == ""
 
 
 def _free_port() -> int:
@@ -148,7 +181,7 @@ def test_without_ray_one_line_error(monkeypatch: pytest.MonkeyPatch, tmp_path: P
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     with pytest.raises(EngineError, match=r'pip install -e "\.\[scale\]"'):
         require_ray()
-    assert _campaign(tmp_path / "c") == 2
+    assert _campaign(tmp_path / "c", "--engine", "ray") == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "Ray" in err and ".[scale]" in err
 
@@ -159,6 +192,9 @@ def test_bad_setting_and_address_are_one_line_errors(tmp_path: Path,
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "planner.max_speed_mps" in err
     assert not (tmp_path / "c").exists()  # stopped before anything ran
+    assert _campaign(tmp_path / "d", "--engine", "pool", "--address", "10.0.0.1:6379") == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "--engine pool" in err
     with pytest.raises(EngineError, match="HOST:PORT"):
         normalise_address("127.0.0.1")
     assert normalise_address("ray://10.0.0.1:10001") == "ray://10.0.0.1:10001"
