@@ -152,7 +152,8 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     if config.run.render:
         from visualiser.visualiser import Visualiser
 
-        visualiser = Visualiser(config.visualiser, out_dir / "frames", laps=config.mission.laps)
+        visualiser = Visualiser(config.visualiser, out_dir / "frames", laps=config.mission.laps,
+                                movie_path=_streamed_movie(config, out_dir))
     main = Main(
         config,
         sensors=sensors,
@@ -181,9 +182,10 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
             visualiser.close()
 
     movie: threading.Thread | None = None
-    if visualiser is not None:
-        # beside the summary, the plots and the report: its PNG decoding and the pipe to
-        # ffmpeg (which encodes in its own process) release the interpreter lock
+    if visualiser is not None and not (out_dir / config.visualiser.movie).is_file():
+        # not streamed while the frames were drawn (a GIF, or the stream failed): made from
+        # the PNG frames beside the summary, the plots and the report (its PNG decoding and the
+        # pipe to ffmpeg, which encodes in its own process, release the interpreter lock)
         progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
         movie = threading.Thread(target=_movie, args=(config, out_dir), name="sim-movie")
         movie.start()
@@ -513,6 +515,17 @@ def _as_status_car(world: SimWorld) -> dict[str, Any]:
 
 def _round(value: float, digits: int = 3) -> float | None:
     return None if value is None or not math.isfinite(value) else round(value, digits)
+
+
+def _streamed_movie(config: AppConfig, out_dir: Path) -> Path | None:
+    """The movie the renderer streams its frames into as it draws them (None: no movie, or
+    one made from the PNG frames at the end)."""
+    from visualiser.movie import STREAM_SUFFIXES
+
+    name = config.visualiser.movie
+    if not name or Path(name).suffix.lower() not in STREAM_SUFFIXES:
+        return None
+    return out_dir / name
 
 
 def _movie(config: AppConfig, out_dir: Path) -> None:

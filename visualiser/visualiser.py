@@ -3,8 +3,9 @@
 ``submit`` turns the messages into a small :class:`~visualiser.frame_data.FrameData` and puts
 it on a bounded queue without waiting: when the renderer is behind, the frame is dropped and
 counted, so drawing never delays a control tick. The renderer process draws on an off-screen
-pygame Surface and writes PNG files named by the frame's time (``frame_<ms>.png``). Running in a
-process (not a thread) keeps the drawing off the loop's GIL.
+pygame Surface and writes PNG files named by the frame's time (``frame_<ms>.png``), and, when
+asked, streams them into a movie as it goes. Running in a process (not a thread) keeps the
+drawing off the loop's GIL.
 """
 
 from __future__ import annotations
@@ -18,11 +19,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from common.messages import ActuatorCommand, GroundTruth, Health, MapState, Plan
 from visualiser.config import VisualiserConfig
 from visualiser.frame_data import FrameData, TrackData, frame_from_messages, track_data
 from visualiser.laps import LapTimer
+from visualiser.movie import MovieStream
 
 log = logging.getLogger(__name__)
 
@@ -92,13 +95,19 @@ class FrameRenderer:
                                   trace_speed_mps=np.asarray(self.trace_speed_mps))
         return self.surface
 
-    def save_png(self, path: Path) -> None:
-        """Write the Surface as PNG (Pillow, fast zlib level)."""
-        from PIL import Image
-
+    def rgb(self) -> NDArray[np.uint8]:
+        """The Surface's pixels, (height, width, 3) RGB."""
         w, h = self.surface.get_size()
         data = self._pygame.image.tobytes(self.surface, "RGB")
-        Image.frombytes("RGB", (w, h), data).save(path, compress_level=self.png_compress_level)
+        return np.frombuffer(data, dtype=np.uint8).reshape(h, w, 3)
+
+    def save_png(self, path: Path, rgb: NDArray[np.uint8] | None = None) -> None:
+        """Write the Surface (or its ``rgb`` pixels, taken already) as PNG (Pillow, fast zlib
+        level)."""
+        from PIL import Image
+
+        Image.fromarray(self.rgb() if rgb is None else rgb, "RGB").save(
+            path, compress_level=self.png_compress_level)
 
 
 def _open_window(width_px: int, height_px: int) -> Any:
@@ -116,8 +125,10 @@ def _open_window(width_px: int, height_px: int) -> Any:
 
 
 def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view: str,
-                   follow_span_m: float, png_compress_level: int, window: bool = False) -> None:
-    """Renderer process: draw and save every frame it is given until ``None`` arrives."""
+                   follow_span_m: float, png_compress_level: int, window: bool = False,
+                   movie_path: str | None = None, movie_fps: float = 10.0) -> None:
+    """Renderer process: draw and save every frame it is given until ``None`` arrives; with
+    ``movie_path``, stream the frames into that movie too (finished when ``None`` arrives)."""
     try:
         os.nice(10)  # drawing yields the CPU to the control loop, never the other way round
     except OSError:
@@ -126,9 +137,12 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
     renderer = FrameRenderer(width_px, height_px, view, follow_span_m, png_compress_level)
     target = Path(out_dir)
     target.mkdir(parents=True, exist_ok=True)
+    movie = MovieStream(Path(movie_path), movie_fps) if movie_path else None
     while True:
         job = jobs.get()
         if job is None:
+            if movie is not None:
+                movie.close()
             break
         kind, payload = job
         if kind == "track":
@@ -136,7 +150,10 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
             continue
         try:
             surface = renderer.render(payload)
-            renderer.save_png(target / frame_file_name(payload.t_s))
+            rgb = renderer.rgb()
+            renderer.save_png(target / frame_file_name(payload.t_s), rgb)
+            if movie is not None:
+                movie.add(rgb)
             if screen is not None:
                 import pygame
 
@@ -152,7 +169,11 @@ def _render_worker(jobs: Any, out_dir: str, width_px: int, height_px: int, view:
 class Visualiser:
     """Renders map frames to ``out_dir`` in a separate process; ``submit`` never blocks."""
 
-    def __init__(self, config: VisualiserConfig, out_dir: Path | str, laps: int = 0) -> None:
+    def __init__(self, config: VisualiserConfig, out_dir: Path | str, laps: int = 0,
+                 movie_path: Path | None = None) -> None:
+        """``movie_path``: the renderer streams its frames into this movie as it draws them
+        (an ``.mp4``, ``.mkv`` or ``.webm``; :class:`~visualiser.movie.MovieStream`), done when
+        :meth:`close` returns."""
         vis = config
         self.out_dir = Path(out_dir)
         self.out_dir.mkdir(parents=True, exist_ok=True)
@@ -161,7 +182,8 @@ class Visualiser:
         self._process = ctx.Process(
             target=_render_worker, name="visualiser",
             args=(self._jobs, str(self.out_dir), vis.width_px, vis.height_px, vis.view,
-                  vis.follow_span_m, vis.png_compress_level, vis.window),
+                  vis.follow_span_m, vis.png_compress_level, vis.window,
+                  str(movie_path) if movie_path is not None else None, vis.movie_fps),
             daemon=True,
         )
         self._process.start()
