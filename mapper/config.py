@@ -121,6 +121,10 @@ class UkfConfig:
     yaw_model_sigma_rad_rts: float = 1.0e-4
     """With bias states: yaw process noise (rad per sqrt(s)) beyond the gyro's."""
     max_predict_dt_s: float = 0.05
+    imu_predict_step_s: float = 0.01
+    """IMU samples closer than this (s) are propagated together, with their mean input (issue
+    42: half the prediction steps of a 200 Hz IMU, at a discretisation error far below the
+    filter's noise); 0: one step per sample, as seed 001."""
     held_gyro_sigma_radps: float = 0.5
     """Without IMU samples (a stalled serial link) the prediction holds the last sample's
     input: the yaw rate's sigma (rad/s) added (as a variance) per ``max_predict_dt_s`` held,

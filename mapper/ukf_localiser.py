@@ -101,7 +101,12 @@ class UkfLocaliser:
         self.P = np.zeros((n, n))
         self.t_s: float | None = None
         self._last_input: tuple[float, float, float] | None = None
-        """The last IMU sample's (ax, ay, gyro) as :meth:`predict_input` takes them."""
+        """The last IMU input propagated (ax, ay, gyro) as :meth:`predict_input` takes them."""
+        self._pending_imu = [0.0, 0.0, 0.0, 0.0, 0.0]
+        """IMU samples taken together, not yet propagated: span (s), the integrals of ax, ay
+        and gyro over it, and how many samples."""
+        self._pending_to_s: float | None = None
+        """The last of those samples' time (s); None when there are none."""
         self.stats: dict[str, Counter[str]] = {}
         self.gyro_bias_radps = 0.0
         self.accel_bias_mps2 = np.zeros(2)
@@ -128,6 +133,8 @@ class UkfLocaliser:
         cfg = self.config
         n = self.n
         self._last_lateral_s = -math.inf
+        self._pending_imu = [0.0, 0.0, 0.0, 0.0, 0.0]
+        self._pending_to_s = None
         old_bias = self.x[N_STATE:].copy() if self.x.size == n else np.zeros(n - N_STATE)
         old_bias_p = (self.P[N_STATE:, N_STATE:].copy() if self.P.shape == (n, n)
                       and np.any(self.P[N_STATE:, N_STATE:]) else None)
@@ -350,20 +357,29 @@ class UkfLocaliser:
             self._end_calibration()
 
     def predict(self, imu: ImuSample) -> None:
-        """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2)."""
+        """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2).
+
+        Samples closer than ``imu_predict_step_s`` are taken together: their inputs are
+        averaged and the state propagated once over their span, when the span reaches the step
+        (or before any update: :meth:`catch_up`). Until then :attr:`t_s` stays at the last
+        propagation, and the samples after it are the car's to predict with
+        (:func:`mapper.motion.predict_forward`)."""
         cfg = self.config
         t = imu.timestamp_s
         if self.t_s is None:
             self.t_s = t
             return
-        dt = t - self.t_s
+        last_s = self._pending_to_s if self._pending_to_s is not None else self.t_s
+        dt = t - last_s
         if not math.isfinite(dt) or dt <= 0.0:
             self.count("imu", "skipped_old")
             return
-        self.t_s = t
-        if self.calibrating and self._calibrate(imu):
-            self.x[IVX:N_STATE] = 0.0
-            return
+        if self.calibrating:
+            self._flush_imu()
+            self.t_s = t
+            if self._calibrate(imu):
+                self.x[IVX:N_STATE] = 0.0
+                return
         gz = imu.gyro_z_radps - self.gyro_bias_radps
         ax = imu.accel_x_mps2 - float(self.accel_bias_mps2[0])
         ay = imu.accel_y_mps2 - float(self.accel_bias_mps2[1])
@@ -373,11 +389,44 @@ class UkfLocaliser:
             # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
             w = gz - float(self.x[IBG]) if self.nb else gz
             ax += w * w * self.car.imu_x_m
+        self.count("imu", "applied")
         if dt > cfg.max_predict_dt_s:
             self.count("imu", "gap")
+            self._flush_imu()
+            dt = t - self.t_s
+        elif cfg.imu_predict_step_s > 0.0:
+            pending = self._pending_imu
+            pending[0] += dt
+            pending[1] += ax * dt
+            pending[2] += ay * dt
+            pending[3] += gz * dt
+            pending[4] += 1.0
+            self._pending_to_s = t
+            if pending[0] < cfg.imu_predict_step_s - 1e-9:
+                return
+            self._flush_imu()
+            self._after_propagation(t)
+            return
         self._propagate(ax, ay, gz, dt)
+        self.t_s = t
         self._last_input = (ax, ay, gz)
-        self.count("imu", "applied")
+        self._after_propagation(t)
+
+    def _flush_imu(self) -> None:
+        """Propagate over the IMU samples taken together so far (their mean input), if any."""
+        if self._pending_to_s is None:
+            return
+        span_s, sax, say, sgz, samples = self._pending_imu
+        mean = (sax / span_s, say / span_s, sgz / span_s)
+        self._pending_imu = [0.0, 0.0, 0.0, 0.0, 0.0]
+        self._pending_to_s, to_s = None, self._pending_to_s
+        ukf_prediction.predict_input(self, *mean, span_s, samples=int(samples))
+        self.t_s = to_s
+        self._last_input = mean
+
+    def _after_propagation(self, t: float) -> None:
+        """The lateral constraint, at most every 0.02 s, after the state reached ``t`` (s)."""
+        cfg = self.config
         if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
             self._last_lateral_s = t
             # The rear axle slides outwards by its tyres' slip angle k a_y, a_y = vx w:
@@ -393,10 +442,12 @@ class UkfLocaliser:
                                 np.array([[sigma**2]]), gate=math.inf)
 
     def catch_up(self, timestamp_s: float) -> None:
-        """Before a wheel, GNSS or LiDAR update at ``timestamp_s``: when the IMU has been
-        silent for more than ``max_predict_dt_s`` before it, propagate to it holding the last
-        IMU sample's input, so the update meets the car where it is (and its samples, when
-        they come back late, are older than the state and skipped)."""
+        """Before a wheel, GNSS or LiDAR update at ``timestamp_s``: the IMU samples taken
+        together so far are propagated; when the IMU has been silent for more than
+        ``max_predict_dt_s`` before it, propagate to it holding the last IMU sample's input, so
+        the update meets the car where it is (and its samples, when they come back late, are
+        older than the state and skipped)."""
+        self._flush_imu()
         if self.t_s is None or self._last_input is None or self.calibrating:
             return
         dt = timestamp_s - self.t_s

@@ -44,9 +44,11 @@ def propagate(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps: flo
 
 
 def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps: float,
-                  dt_s: float) -> None:
+                  dt_s: float, samples: int = 1) -> None:
     """One unscented prediction step of ``dt_s`` with the rear-axle acceleration and gyro
-    (measured; with bias states, each sigma point subtracts its own biases)."""
+    (measured; with bias states, each sigma point subtracts its own biases): one IMU sample's,
+    or the mean of ``samples`` samples over ``dt_s``, whose white noise is that much smaller
+    (the velocity's random walk over ``dt_s`` is the same either way)."""
     cfg = ukf.config
     chi = ukf._sigma_points()
     x, y, yaw, vx, vy, w = chi.T[:N_STATE]
@@ -60,10 +62,17 @@ def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps:
     c, s = np.cos(yaw), np.sin(yaw)
     nu = cfg.yaw_rate_blend_nu
     out = np.empty_like(chi)
-    out[:, IX] = x + (vx * c - vy * s) * dt_s
-    out[:, IY] = y + (vx * s + vy * c) * dt_s
-    out[:, IVX] = vx + (ax + w * vy) * dt_s
-    out[:, IVY] = vy + (ay - w * vx) * dt_s
+    dvx = (ax + w * vy) * dt_s
+    dvy = (ay - w * vx) * dt_s
+    # k samples' mean input over dt_s moves the car as k steps of dt_s / k would: the speed
+    # gained in the earlier steps carries it on in the later ones ((k - 1) / 2k of dv dt_s)
+    carry = (samples - 1) / (2.0 * samples)
+    ux = vx + carry * dvx
+    uy = vy + carry * dvy
+    out[:, IX] = x + (ux * c - uy * s) * dt_s
+    out[:, IY] = y + (ux * s + uy * c) * dt_s
+    out[:, IVX] = vx + dvx
+    out[:, IVY] = vy + dvy
     out[:, IW] = nu * w + (1.0 - nu) * gyro
     # The yaw over the interval with the mean of its two yaw rates (trapezoid): the seed's
     # yaw += w dt with the previous sample's rate lags the yaw by half an IMU period
@@ -73,10 +82,11 @@ def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps:
     mean, cov = ukf._mean_cov(out, (IYAW,))
     if biased:
         # The biases are states: only the white noise (and the unmodelled) is process noise.
-        q_acc = cfg.accel_sigma_mps2**2 * dt_s * dt_s + cfg.accel_model_sigma_mps2**2 * dt_s
+        q_acc = (cfg.accel_sigma_mps2**2 * dt_s * dt_s / samples
+                 + cfg.accel_model_sigma_mps2**2 * dt_s)
         q_yaw = cfg.yaw_model_sigma_rad_rts**2 * dt_s
     else:
-        q_acc = (cfg.accel_sigma_mps2**2 * dt_s + cfg.accel_bias_sigma_mps2**2) * dt_s
+        q_acc = (cfg.accel_sigma_mps2**2 * dt_s / samples + cfg.accel_bias_sigma_mps2**2) * dt_s
         q_yaw = cfg.gyro_bias_sigma_radps**2 * dt_s
     q = [
         1e-6 * dt_s,
@@ -84,7 +94,7 @@ def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps:
         q_yaw,
         q_acc,
         q_acc + cfg.lateral_model_sigma_mps2**2 * dt_s,
-        (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 + nu**2 * 1e-4 * dt_s,
+        (1.0 - nu) ** 2 * cfg.gyro_sigma_radps**2 / samples + nu**2 * 1e-4 * dt_s,
     ]
     if biased:
         q += [cfg.gyro_bias_walk_radps_rths**2 * dt_s,
