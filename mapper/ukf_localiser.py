@@ -55,7 +55,6 @@ from common.messages import (
 from mapper import ukf_gnss, ukf_prediction
 from mapper.config import UkfConfig
 from mapper.imu_calibration import StaticCalibration
-from mapper.motion import rear_slip_velocity
 from mapper.spd_solve import cho_solve_lower, cholesky_lower, solve_spd
 from mapper.ukf_cones import ConeMapUpdate
 from mapper.ukf_state import (
@@ -357,89 +356,14 @@ class UkfLocaliser:
             self._end_calibration()
 
     def predict(self, imu: ImuSample) -> None:
-        """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2).
-
-        Samples closer than ``imu_predict_step_s`` are taken together: their inputs are
-        averaged and the state propagated once over their span, when the span reaches the step
-        (or before any update: :meth:`catch_up`). Until then :attr:`t_s` stays at the last
-        propagation, and the samples after it are the car's to predict with
-        (:func:`mapper.motion.predict_forward`)."""
-        cfg = self.config
-        t = imu.timestamp_s
-        if self.t_s is None:
-            self.t_s = t
-            return
-        last_s = self._pending_to_s if self._pending_to_s is not None else self.t_s
-        dt = t - last_s
-        if not math.isfinite(dt) or dt <= 0.0:
-            self.count("imu", "skipped_old")
-            return
-        if self.calibrating:
-            self._flush_imu()
-            self.t_s = t
-            if self._calibrate(imu):
-                self.x[IVX:N_STATE] = 0.0
-                return
-        gz = imu.gyro_z_radps - self.gyro_bias_radps
-        ax = imu.accel_x_mps2 - float(self.accel_bias_mps2[0])
-        ay = imu.accel_y_mps2 - float(self.accel_bias_mps2[1])
-        if cfg.imu_lever_arm:
-            # Centripetal term only: the tangential one (dw/dt r) would need a differentiated
-            # gyro, noisier than the term itself; vy is held by the lateral constraint anyway.
-            # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
-            w = gz - float(self.x[IBG]) if self.nb else gz
-            ax += w * w * self.car.imu_x_m
-        self.count("imu", "applied")
-        if dt > cfg.max_predict_dt_s:
-            self.count("imu", "gap")
-            self._flush_imu()
-            dt = t - self.t_s
-        elif cfg.imu_predict_step_s > 0.0:
-            pending = self._pending_imu
-            pending[0] += dt
-            pending[1] += ax * dt
-            pending[2] += ay * dt
-            pending[3] += gz * dt
-            pending[4] += 1.0
-            self._pending_to_s = t
-            if pending[0] < cfg.imu_predict_step_s - 1e-9:
-                return
-            self._flush_imu()
-            self._after_propagation(t)
-            return
-        self._propagate(ax, ay, gz, dt)
-        self.t_s = t
-        self._last_input = (ax, ay, gz)
-        self._after_propagation(t)
+        """Propagate to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2;
+        :func:`mapper.ukf_prediction.predict_imu`: samples closer than
+        ``imu_predict_step_s`` are propagated together)."""
+        ukf_prediction.predict_imu(self, imu)
 
     def _flush_imu(self) -> None:
-        """Propagate over the IMU samples taken together so far (their mean input), if any."""
-        if self._pending_to_s is None:
-            return
-        span_s, sax, say, sgz, samples = self._pending_imu
-        mean = (sax / span_s, say / span_s, sgz / span_s)
-        self._pending_imu = [0.0, 0.0, 0.0, 0.0, 0.0]
-        self._pending_to_s, to_s = None, self._pending_to_s
-        ukf_prediction.predict_input(self, *mean, span_s, samples=int(samples))
-        self.t_s = to_s
-        self._last_input = mean
-
-    def _after_propagation(self, t: float) -> None:
-        """The lateral constraint, at most every 0.02 s, after the state reached ``t`` (s)."""
-        cfg = self.config
-        if cfg.lateral_velocity_sigma_mps > 0.0 and t - self._last_lateral_s >= 0.02:
-            self._last_lateral_s = t
-            # The rear axle slides outwards by its tyres' slip angle k a_y, a_y = vx w:
-            # h(x) = vy + k vx^2 w = 0.
-            a_max = self.car.max_lateral_accel_mps2 if cfg.rear_slip_saturation else math.inf
-            vy_slip, d_vx, d_w = rear_slip_velocity(float(self.x[IVX]), float(self.x[IW]),
-                                                    cfg.rear_slip_rad_per_mps2, a_max)
-            H = _row(IVY, self.n)
-            H[0, IVX] = -d_vx
-            H[0, IW] = -d_w
-            sigma = cfg.lateral_velocity_sigma_mps + cfg.lateral_slip_sigma_fraction * abs(vy_slip)
-            self.update_linear("lateral", np.array([vy_slip - self.x[IVY]]), H,
-                                np.array([[sigma**2]]), gate=math.inf)
+        """Propagate over the IMU samples held so far (:func:`ukf_prediction.flush_held`)."""
+        ukf_prediction.flush_held(self)
 
     def catch_up(self, timestamp_s: float) -> None:
         """Before a wheel, GNSS or LiDAR update at ``timestamp_s``: the IMU samples taken

@@ -1,6 +1,7 @@
 """Seed 001's UKF prediction (alg. 2): one unscented step with the IMU's specific force and
-yaw rate at the rear axle, and a gap in the IMU's samples driven through in steps (with the
-last sample's input held, and its error added, when the IMU has gone silent).
+yaw rate at the rear axle (samples closer than ``imu_predict_step_s`` taken together, issue 42),
+the lateral constraint after it, and a gap in the IMU's samples driven through in steps (with
+the last sample's input held, and its error added, when the IMU has gone silent).
 
 Functions of the :class:`~mapper.ukf_localiser.UkfLocaliser` they move, as :mod:`mapper.ukf_gnss`.
 """
@@ -13,10 +14,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from common.conventions import wrap_angle
+from mapper.motion import rear_slip_velocity
 from mapper.spd_solve import solve_spd
 from mapper.ukf_state import IBAX, IBAY, IBG, IVX, IVY, IW, IX, IY, IYAW, N_STATE, wrap_yaw
 
 if TYPE_CHECKING:
+    from common.messages import ImuSample
     from mapper.ukf_localiser import UkfLocaliser
 
 MAX_PREDICT_STEPS = 40
@@ -123,3 +126,94 @@ def predict_input(ukf: UkfLocaliser, ax_mps2: float, ay_mps2: float, gyro_radps:
         c, s = math.cos(float(mean[IYAW])), math.sin(float(mean[IYAW]))
         cov[:2, :2] += qa * dt_s * np.array([[c * c, c * s], [c * s, s * s]])
     ukf.P = 0.5 * (cov + cov.T)
+
+
+def predict_imu(ukf: UkfLocaliser, imu: ImuSample) -> None:
+    """Propagate ``ukf`` to ``imu.timestamp_s`` with its specific force and yaw rate (alg. 2).
+
+    Samples closer than ``imu_predict_step_s`` are taken together: their inputs are averaged
+    and the state propagated once over their span when the span reaches the step (or before
+    any update: :meth:`UkfLocaliser.catch_up`). Until then ``ukf.t_s`` stays at the last
+    propagation, and the samples after it are the car's to predict with
+    (:func:`mapper.motion.predict_forward`)."""
+    cfg = ukf.config
+    t = imu.timestamp_s
+    if ukf.t_s is None:
+        ukf.t_s = t
+        return
+    last_s = ukf._pending_to_s if ukf._pending_to_s is not None else ukf.t_s
+    dt = t - last_s
+    if not math.isfinite(dt) or dt <= 0.0:
+        ukf.count("imu", "skipped_old")
+        return
+    if ukf.calibrating:
+        flush_held(ukf)
+        ukf.t_s = t
+        if ukf._calibrate(imu):
+            ukf.x[IVX:N_STATE] = 0.0
+            return
+    gz = imu.gyro_z_radps - ukf.gyro_bias_radps
+    ax = imu.accel_x_mps2 - float(ukf.accel_bias_mps2[0])
+    ay = imu.accel_y_mps2 - float(ukf.accel_bias_mps2[1])
+    if cfg.imu_lever_arm:
+        # Centripetal term only: the tangential one (dw/dt r) would need a differentiated
+        # gyro, noisier than the term itself; vy is held by the lateral constraint anyway.
+        # (With bias states: about the mean bias; its spread moves w^2 r negligibly.)
+        w = gz - float(ukf.x[IBG]) if ukf.nb else gz
+        ax += w * w * ukf.car.imu_x_m
+    ukf.count("imu", "applied")
+    if dt > cfg.max_predict_dt_s:
+        ukf.count("imu", "gap")
+        flush_held(ukf)
+        dt = t - ukf.t_s
+    elif cfg.imu_predict_step_s > 0.0:
+        held = ukf._pending_imu
+        held[0] += dt
+        held[1] += ax * dt
+        held[2] += ay * dt
+        held[3] += gz * dt
+        held[4] += 1.0
+        ukf._pending_to_s = t
+        if held[0] < cfg.imu_predict_step_s - 1e-9:
+            return
+        flush_held(ukf)
+        _lateral_constraint(ukf, t)
+        return
+    propagate(ukf, ax, ay, gz, dt)
+    ukf.t_s = t
+    ukf._last_input = (ax, ay, gz)
+    _lateral_constraint(ukf, t)
+
+
+def flush_held(ukf: UkfLocaliser) -> None:
+    """Propagate over the IMU samples taken together so far (their mean input), if any."""
+    to_s = ukf._pending_to_s
+    if to_s is None:
+        return
+    span_s, sax, say, sgz, samples = ukf._pending_imu
+    mean = (sax / span_s, say / span_s, sgz / span_s)
+    ukf._pending_imu = [0.0, 0.0, 0.0, 0.0, 0.0]
+    ukf._pending_to_s = None
+    predict_input(ukf, *mean, span_s, samples=int(samples))
+    ukf.t_s = to_s
+    ukf._last_input = mean
+
+
+def _lateral_constraint(ukf: UkfLocaliser, t: float) -> None:
+    """The lateral constraint, at most every 0.02 s, once the state has reached ``t`` (s)."""
+    cfg = ukf.config
+    if cfg.lateral_velocity_sigma_mps <= 0.0 or t - ukf._last_lateral_s < 0.02:
+        return
+    ukf._last_lateral_s = t
+    # The rear axle slides outwards by its tyres' slip angle k a_y, a_y = vx w:
+    # h(x) = vy + k vx^2 w = 0.
+    a_max = ukf.car.max_lateral_accel_mps2 if cfg.rear_slip_saturation else math.inf
+    vy_slip, d_vx, d_w = rear_slip_velocity(float(ukf.x[IVX]), float(ukf.x[IW]),
+                                            cfg.rear_slip_rad_per_mps2, a_max)
+    H = np.zeros((1, ukf.n))
+    H[0, IVY] = 1.0
+    H[0, IVX] = -d_vx
+    H[0, IW] = -d_w
+    sigma = cfg.lateral_velocity_sigma_mps + cfg.lateral_slip_sigma_fraction * abs(vy_slip)
+    ukf.update_linear("lateral", np.array([vy_slip - ukf.x[IVY]]), H,
+                      np.array([[sigma**2]]), gate=math.inf)
