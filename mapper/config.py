@@ -374,13 +374,12 @@ class TentativeConfig:
     """Camera cones beyond the LiDAR's landmarks, published for the exploring planner
     (:mod:`mapper.tentative_cones`, issue 45): never in the SLAM, gone at the map freeze."""
 
-    enabled: bool = False
-    """Off until the cause of its cone hits is found: on, the track in view ended 17-19 m
-    ahead instead of 14-15 m and autocross ran faster (FSG 34.5 -> 32.2 s; shared tracks and
-    gen:1..20, seeds 1-3: 72/72 clean, median explored ratio 2.19 -> 1.83, worst 2.65 ->
-    2.19), but a held-out community layout (EUFS small_track_2, a bend 2.7 m wide) hit 1-2
-    cones in 2 of 3 seeds (clean with the LiDAR's cones alone), also at a 12 m/s cap and with
-    4 frames or 13 m asked of a tentative cone."""
+    enabled: bool = True
+    """On: the track in view ends 17-19 m ahead instead of 14-15 m and autocross runs faster.
+    Its cone hits on a held-out community layout (EUFS small_track_2, a bend 2.5 m between
+    cone centres and its exit) were the speed the farther view allowed in a narrow passage,
+    not the tentative cones' places: ``planner.exploration_narrow_room_m`` slows such a
+    passage (:func:`planner.exploration_speed.passage_room_m`)."""
     landmark_gate_m: float = 1.0
     """A camera cone this near (m) a landmark is that landmark (its colour vote only)."""
     gate_m: float = 1.0

@@ -143,6 +143,16 @@ class PlannerConfig:
     of the track) does not set the speed profile; the manoeuvre's own curvature is checked.
     Short: the path starts at the gate beside the car, and a bend that begins a few metres
     ahead (the community layouts 'thin', 'small_track_2') must slow the car (3 m hit a cone)."""
+    exploration_narrow_room_m: float = 0.8
+    """While exploring, the path is a narrow passage where it could move less than half this
+    (m) to one side before the car's body comes within the manoeuvres' full margin of a cone
+    (:func:`planner.exploration_speed.passage_room_m`): driven at no more than
+    ``exploration_narrow_speed_mps``. 0: off."""
+    exploration_narrow_speed_mps: float = 5.0
+    """The speed (m/s) of a narrow passage while exploring: a manoeuvre passes its cones with
+    little more than a cone's margin, and at speed in a bend the car follows its path to
+    0.1-0.3 m (EUFS small_track_2's 2.5 m wide bend and its exit hit their outer cones at
+    6.5-8.5 m/s with the camera's cones in view; the LiDAR's alone held it to 4-7 m/s)."""
     loop_through_start_m: float = 3.0
     """While exploring, a loop found in the cones is the track only when it passes this near
     the start (m): a loop of part of the track (one lobe of a figure-like layout, closed

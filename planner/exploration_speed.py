@@ -35,12 +35,16 @@ their own curvature.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
+
+if TYPE_CHECKING:
+    from planner.manoeuvres import ManoeuvreGenerator
 
 FloatArray = NDArray[np.float64]
 
@@ -160,3 +164,89 @@ def exploring_curvature(kappa_1pm: FloatArray, step_m: float, config: PlannerCon
     from scipy.ndimage import gaussian_filter1d  # local: only the profile needs it
 
     return kappa, np.asarray(gaussian_filter1d(kappa, sigma, mode="nearest"), np.float64)
+
+
+
+def passage_room_m(xy_m: FloatArray, heading_rad: FloatArray, cones_xy_m: FloatArray,
+                   circle_offsets_m: ArrayLike, required_m: float, max_offset_m: float
+                   ) -> FloatArray:
+    """The room about the path (M,) (m) at each of its points ``xy_m`` (M, 2) with
+    ``heading_rad`` (M,): twice the lateral distance the path could move either way before
+    the circles covering the car's body (centres ``circle_offsets_m`` ahead of the reference
+    point along the heading) come within ``required_m`` of a cone centre of ``cones_xy_m``
+    (N, 2), the manoeuvres' check (:class:`planner.manoeuvres.ManoeuvreGenerator`) with the
+    body held parallel to the path; at most ``2 max_offset_m``. 0: the path itself is within
+    that of a cone (a manoeuvre must swerve from it)."""
+    xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+    m = len(xy)
+    room = np.full(m, 2.0 * max_offset_m)
+    cones = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
+    if m == 0 or len(cones) == 0:
+        return room
+    from scipy.spatial import cKDTree  # local: only the exploring profile needs it
+
+    offs = np.asarray(circle_offsets_m, np.float64)
+    mid = 0.5 * (float(offs.max()) + float(offs.min()))
+    reach = 0.5 * (float(offs.max()) - float(offs.min())) + required_m + max_offset_m
+    cos_h, sin_h = np.cos(heading_rad), np.sin(heading_rad)
+    centres = xy + mid * np.stack([cos_h, sin_h], axis=1)
+    near = cKDTree(cones).query_ball_point(centres, reach)
+    r2 = required_m * required_m
+    for i in range(m):
+        if not near[i]:
+            continue
+        rel = cones[near[i]] - xy[i]
+        along = rel[:, 0] * cos_h[i] + rel[:, 1] * sin_h[i]
+        across = -rel[:, 0] * sin_h[i] + rel[:, 1] * cos_h[i]
+        w = along[:, None] - offs[None, :]  # (n, K): each cone from each circle, along
+        half = np.sqrt(np.maximum(r2 - w * w, 0.0)).max(axis=1)  # the widest circle's reach
+        hit = half > 0.0
+        if not hit.any():
+            continue
+        lo, hi = across[hit] - half[hit], across[hit] + half[hit]
+        if np.any((lo <= 0.0) & (hi >= 0.0)):
+            room[i] = 0.0
+            continue
+        left = lo[lo > 0.0].min(initial=max_offset_m)
+        right = -hi[hi < 0.0].max(initial=-max_offset_m)
+        room[i] = 2.0 * min(left, right, max_offset_m)
+    return room
+
+
+def narrow_passage_speed_mps(room_m: FloatArray, narrow_room_m: float, speed_mps: float
+                             ) -> FloatArray:
+    """The speed limit (M,) (m/s) of a narrow passage: ``speed_mps`` where the path's
+    ``room_m`` (:func:`passage_room_m`) is below ``narrow_room_m``, elsewhere none (inf).
+    There a manoeuvre passes a cone with little more than the cone's margin, and at speed the
+    car follows its path in a bend to 0.1-0.3 m, no nearer."""
+    narrow = np.asarray(room_m, np.float64) < narrow_room_m
+    return np.asarray(np.where(narrow, speed_mps, np.inf), np.float64)
+
+
+ROOM_STEP_M = 0.5
+"""The spacing (m) of the points along an exploring path whose room is measured: the
+circles covering the car's body are 0.58 m apart."""
+
+
+def narrow_passage_limit_mps(frame: SplineBaseframe, cones_xy_m: FloatArray | None,
+                             generator: ManoeuvreGenerator, config: PlannerConfig
+                             ) -> FloatArray:
+    """:func:`narrow_passage_speed_mps` along the exploring ``frame`` among ``cones_xy_m``
+    (N, 2): its room measured every :data:`ROOM_STEP_M` with the manoeuvres' circles and full
+    margin (``generator``) over their widest offsets (``offsets_wide_max_m``), each point
+    taking the lesser room of the measured points on either side; narrow below
+    ``exploration_narrow_room_m``, driven at ``exploration_narrow_speed_mps``. A narrow room
+    of 0 or no cones: no limit."""
+    m = len(frame.s_m)
+    c = config
+    if cones_xy_m is None or len(cones_xy_m) == 0 or c.exploration_narrow_room_m <= 0.0:
+        return np.full(m, np.inf)
+    stride = max(int(round(ROOM_STEP_M / frame.step_m)), 1)
+    idx = np.unique(np.r_[np.arange(0, m, stride), m - 1])
+    room = passage_room_m(frame.xy_m[idx], frame.heading_rad[idx], cones_xy_m,
+                          generator.circle_offsets_m, generator.required_m,
+                          c.offsets_wide_max_m)
+    k = np.searchsorted(idx, np.arange(m), side="right") - 1  # the measured point behind
+    room_at = np.minimum(room[k], room[np.minimum(k + 1, len(idx) - 1)])
+    return narrow_passage_speed_mps(room_at, c.exploration_narrow_room_m,
+                                    c.exploration_narrow_speed_mps)

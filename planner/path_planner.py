@@ -22,7 +22,11 @@ from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate,
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
-from planner.exploration_speed import exploring_curvature, exploring_speed_limit_mps
+from planner.exploration_speed import (
+    exploring_curvature,
+    exploring_speed_limit_mps,
+    narrow_passage_limit_mps,
+)
 from planner.explored_lap import ExploredLap
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
@@ -197,7 +201,8 @@ class PathPlanner:
         self.frame = frame
         self.frame_source = source
         self._frame_msg = frame.to_message()
-        self._speed_mps = self._profile(frame, car_xy=(map_state.pose.x_m, map_state.pose.y_m))
+        self._speed_mps = self._profile(frame, car_xy=(map_state.pose.x_m, map_state.pose.y_m),
+                                        cones_xy_m=map_state.cones.xy_m)
         if source == "waypoints":
             self.book.set_points(frame.xy_m[:: max(int(c.waypoint_spacing_m / frame.step_m), 1)],
                                  closed)
@@ -369,7 +374,8 @@ class PathPlanner:
         return True
 
     def _profile(self, frame: SplineBaseframe, stop_s_m: float = math.inf,
-                 car_xy: tuple[float, float] | None = None) -> FloatArray:
+                 car_xy: tuple[float, float] | None = None,
+                 cones_xy_m: FloatArray | None = None) -> FloatArray:
         """The speed profile (M,) (m/s) along ``frame``; an open frame ends at standstill,
         at ``stop_s_m`` (m along it) when that comes first."""
         c = self.config
@@ -394,6 +400,8 @@ class PathPlanner:
         if exploring:  # the invariant: able to stop within the track seen (exploration_speed)
             extra = np.minimum(extra, exploring_speed_limit_mps(
                 frame, car_xy, self._cover_room_m, self._cover_speed_mps, c))
+            extra = np.minimum(extra, narrow_passage_limit_mps(frame, cones_xy_m,
+                                                               self.generator, c))
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,

@@ -139,3 +139,71 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
         asked.append(float(v[0]))
     assert len(asked) > 30
     assert max(asked) > 9.0  # past the constant cap it had (8 m/s)
+
+
+def _lane(width_m: float, pinch_m: float | None = None, length_m: float = 40.0
+          ) -> np.ndarray:
+    """Cones along a straight lane along +x, every 3 m on both sides ``width_m`` apart; from
+    x = 18 to 24 m ``pinch_m`` apart (when given)."""
+    x = np.arange(0.0, length_m + 0.1, 3.0)
+    half = np.full(len(x), width_m / 2.0)
+    if pinch_m is not None:
+        half[(x >= 18.0) & (x <= 24.0)] = pinch_m / 2.0
+    return np.vstack([np.c_[x, half], np.c_[x, -half]])
+
+
+def _generator():  # type: ignore[no-untyped-def]
+    from common.car import CarConfig
+    from planner.manoeuvres import ManoeuvreGenerator
+
+    return ManoeuvreGenerator(PlannerConfig(), CarConfig())
+
+
+def test_the_room_about_the_path_is_what_the_manoeuvres_check_leaves() -> None:
+    """Twice what the path may move to either side before the manoeuvres' circles come
+    within their full margin of a cone: a 3.5 m lane leaves 2 x (1.75 - required), a 2.5 m
+    one 2 x (1.25 - required); a path off the middle the lesser side; on a cone, none."""
+    from planner.exploration_speed import passage_room_m
+
+    gen = _generator()
+    req = gen.required_m
+    x = np.arange(3.0, 37.0, 0.5)
+    on_mid = np.c_[x, np.zeros(len(x))]
+    heading = np.zeros(len(x))
+    wide = passage_room_m(on_mid, heading, _lane(3.5), gen.circle_offsets_m, req, 2.5)
+    # (between two cones of a side the circles reach a little less far: up to 0.1 m more)
+    assert np.all((wide >= 2.0 * (1.75 - req) - 1e-6) & (wide <= 2.0 * (1.75 - req) + 0.1))
+    pinched = passage_room_m(on_mid, heading, _lane(3.5, 2.5), gen.circle_offsets_m, req, 2.5)
+    in_pinch = (x >= 19.0) & (x <= 22.0)
+    assert np.all(np.abs(pinched[in_pinch] - 2.0 * (1.25 - req)) <= 0.1)
+    assert np.allclose(pinched[x <= 12.0], wide[x <= 12.0])
+    aside = passage_room_m(on_mid + [0.0, 0.4], heading, _lane(3.5), gen.circle_offsets_m,
+                           req, 2.5)
+    assert np.all(np.abs(aside - 2.0 * (1.75 - 0.4 - req)) <= 0.1)
+    on_cone = passage_room_m(np.array([[3.0, 1.75]]), np.zeros(1), _lane(3.5),
+                             gen.circle_offsets_m, req, 2.5)
+    assert on_cone[0] == 0.0
+    free = passage_room_m(on_mid, heading, np.zeros((0, 2)), gen.circle_offsets_m, req, 2.5)
+    assert np.all(free == 5.0)
+
+
+def test_a_narrow_passage_is_driven_at_its_speed_and_a_lane_as_wide_as_the_rules_not() -> None:
+    """Along an exploring frame, the passage 2.5 m between cone centres is limited to
+    ``exploration_narrow_speed_mps`` (with the body's length, a little before and after it);
+    the 3.5 m lane and the rules' narrowest track (3 m) are not limited."""
+    from planner.baseframe import SplineBaseframe
+    from planner.exploration_speed import narrow_passage_limit_mps
+
+    config = PlannerConfig()
+    gen = _generator()
+    x = np.arange(0.0, 40.5, 1.0)
+    frame = SplineBaseframe(np.c_[x, np.zeros(len(x))], False, step_m=0.25)
+    s = frame.s_m
+    v = narrow_passage_limit_mps(frame, _lane(3.5, 2.5), gen, config)
+    assert np.all(v[(s >= 19.0) & (s <= 22.0)] == config.exploration_narrow_speed_mps)
+    assert np.all(np.isinf(v[(s > 3.0) & (s < 14.0)]))
+    for width in (3.5, 3.0):
+        assert np.all(np.isinf(narrow_passage_limit_mps(frame, _lane(width), gen, config)))
+    off = PlannerConfig(exploration_narrow_room_m=0.0)
+    assert np.all(np.isinf(narrow_passage_limit_mps(frame, _lane(3.5, 2.5), gen, off)))
+    assert np.all(np.isinf(narrow_passage_limit_mps(frame, None, gen, config)))

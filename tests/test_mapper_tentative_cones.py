@@ -74,7 +74,7 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     from mapper.mapper import Mapper
 
     config = MapperConfig()
-    config.tentative.enabled = True
+    assert config.tentative.enabled  # on by default (issue 45)
     mapper = Mapper(config, CarConfig())
     cones = tuple(ConeDetection(0.0, 18.0, y, colour=ConeColour.BLUE, confidence=0.9)
                   for y in (2.0, -2.0))
@@ -86,8 +86,10 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     mapper.freeze(ConeMap.empty())
     assert len(mapper._make_state(0.1).cones) == 0
     assert len(mapper.tentative) == 0
-    # off (the default): the landmarks alone
-    off = Mapper(MapperConfig(), CarConfig())
+    # off: the landmarks alone
+    off_config = MapperConfig()
+    off_config.tentative.enabled = False
+    off = Mapper(off_config, CarConfig())
     off._apply(CameraCones(0.0, cones))
     off._apply(CameraCones(0.05, cones))
     assert len(off._make_state(0.05).cones) == 0
