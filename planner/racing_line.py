@@ -214,6 +214,7 @@ def min_curvature_offsets(
     *,
     length_weight: float = 0.0,
     max_iterations: int = 400,
+    start_m: FloatArray | None = None,
 ) -> FloatArray:
     """Offsets alpha (N,) (m, along ``normals``) within [lower, upper] that minimise
 
@@ -223,7 +224,8 @@ def min_curvature_offsets(
     curved line, with ``length_weight`` > 0 trading curvature for a shorter path. Where
     lower > upper (the track is narrower than the car and margins) the offset is pinned to the
     middle of the two. Solved with L-BFGS-B (bounds), the gradient from the tridiagonal
-    Jacobian of the curvature."""
+    Jacobian of the curvature. ``start_m``: offsets to start the descent from (default the
+    centreline), e.g. the solution for a neighbouring ``length_weight``."""
     lo = np.asarray(lower_m, np.float64).copy()
     hi = np.asarray(upper_m, np.float64).copy()
     pinch = lo > hi
@@ -250,7 +252,7 @@ def min_curvature_offsets(
             grad += length_weight * _length_gradient(line, normals, closed) / l_scale
         return value, grad
 
-    start = np.clip(np.zeros(len(lo)), lo, hi)
+    start = np.clip(np.zeros(len(lo)) if start_m is None else start_m, lo, hi)
     result = minimize(cost, start, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi,
                       strict=True)), options={"maxiter": max_iterations, "ftol": 1e-10})
     return np.clip(np.asarray(result.x, np.float64), lo, hi)
@@ -325,8 +327,12 @@ def racing_line(
         """The lap time (s) of the line with ``length_weights[i]`` (inf: no line)."""
         if i not in tried:
             weight = length_weights[i]
+            # from the solution of the nearest weight tried: a few steps from this one's
+            near = [(abs(j - i), a) for j, (_, a) in tried.items() if a is not None]
             alpha = min_curvature_offsets(track.centre_xy_m, normals, lower, upper,
-                                          track.closed, length_weight=weight)
+                                          track.closed, length_weight=weight,
+                                          start_m=min(near, key=lambda p: p[0])[1]
+                                          if near else None)
             line = track.centre_xy_m + alpha[:, None] * normals
             if np.all(np.isfinite(line)):
                 t = line_lap_time_s(line, track.closed, limits, speed_cap)
