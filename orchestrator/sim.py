@@ -170,55 +170,93 @@ def run_sim(config: AppConfig, options: SimOptions) -> dict[str, Any]:
     runner = _SimRunner(config, options, track, world, driver, main, clock, recorder)
     try:
         result = runner.run()
-    finally:
-        if live is not None:
-            live.close()
-        sensors.stop()
-        if recorder is not None:
-            progress_log.info("sim: closing the recording")
-            recorder.close()
-        if visualiser is not None:
-            progress_log.info("sim: drawing the last frames")
-            visualiser.close()
+    except BaseException:
+        _close_outputs(live, sensors, recorder, visualiser)
+        raise
+    # the recorder's and the renderer's processes finish their files (and the streamed
+    # movie) while this one draws the plots
+    closer = _Closer(live, sensors, recorder, visualiser)
+    return _finish(config, options, out_dir, track, world, main, runner, result, hasher,
+                   visualiser, live, recorder, closer)
 
-    movie: threading.Thread | None = None
-    if visualiser is not None and not (out_dir / config.visualiser.movie).is_file():
-        # not streamed while the frames were drawn (a GIF, or the stream failed): made from
-        # the PNG frames beside the summary, the plots and the report (its PNG decoding and the
-        # pipe to ffmpeg, which encodes in its own process, release the interpreter lock)
-        progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
-        movie = threading.Thread(target=_movie, args=(config, out_dir), name="sim-movie")
-        movie.start()
-    try:
-        summary = _finish(config, options, out_dir, track, world, main, runner, result,
-                          hasher, visualiser, live, recorder, movie)
-    finally:
-        if movie is not None:
-            movie.join()
-    return summary
+
+def _close_outputs(live: Any, sensors: Any, recorder: Any, visualiser: Any) -> None:
+    """Stop the live view and the sensors, let the recorder and the renderer finish."""
+    if live is not None:
+        live.close()
+    sensors.stop()
+    if recorder is not None:
+        progress_log.info("sim: closing the recording")
+        recorder.close()
+    if visualiser is not None:
+        progress_log.info("sim: drawing the last frames")
+        visualiser.close()
+
+
+class _Closer(threading.Thread):
+    """:func:`_close_outputs` in a thread (it waits on other processes); :meth:`finish` joins
+    it and raises what it raised."""
+
+    def __init__(self, *outputs: Any) -> None:
+        super().__init__(name="sim-close")
+        self._outputs = outputs
+        self._error: BaseException | None = None
+        self.start()
+
+    def run(self) -> None:
+        try:
+            _close_outputs(*self._outputs)
+        except BaseException as exc:  # noqa: BLE001 (raised again in the run's thread)
+            self._error = exc
+
+    def finish(self) -> None:
+        self.join()
+        if self._error is not None:
+            raise self._error
 
 
 def _finish(config: AppConfig, options: SimOptions, out_dir: Path, track: Track,
             world: SimWorld, main: Main, runner: _SimRunner, result: _Result,
             hasher: HashSink, visualiser: Any, live: Any, recorder: Any,
-            movie: threading.Thread | None) -> dict[str, Any]:
-    """The run's summary, ``summary.json``, the plots and the report (once the ``movie``
-    thread has made the movie it links)."""
-    summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
-    if visualiser is not None:
-        summary["frames"] = {"rendered": visualiser.submitted, "dropped": visualiser.dropped}
-    if live is not None:
-        summary["live"] = live.stats()
-    if recorder is not None:
-        summary["recording"] = {"written": recorder.written, "dropped": recorder.dropped,
-                                "errors": recorder.errors}
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    if options.artifacts:
-        runner.log.save(out_dir / "run_log.npz")
-        progress_log.info("sim: writing the plots and report.html")
-        _plots(out_dir, runner, track)
+            closer: _Closer) -> dict[str, Any]:
+    """The plots (while ``closer`` closes the outputs), the run's summary, ``summary.json``,
+    the movie when it was not streamed, and the report."""
+    plot_error: Exception | None = None
+    try:
+        if options.artifacts:
+            runner.log.save(out_dir / "run_log.npz")
+            progress_log.info("sim: writing the plots and report.html")
+            try:
+                _plots(out_dir, runner, track)
+            except Exception as exc:  # raised once summary.json is written
+                plot_error = exc
+    finally:
+        closer.finish()
+    movie: threading.Thread | None = None
+    if visualiser is not None and not (out_dir / config.visualiser.movie).is_file():
+        # not streamed while the frames were drawn (a GIF, or the stream failed): made from
+        # the PNG frames beside the summary (its PNG decoding and the pipe to ffmpeg, which
+        # encodes in its own process, release the interpreter lock)
+        progress_log.info("sim: making %s", config.visualiser.movie or "no movie")
+        movie = threading.Thread(target=_movie, args=(config, out_dir), name="sim-movie")
+        movie.start()
+    try:
+        summary = _summary(config, track, world, main, runner, result, hasher.hexdigest())
+        if visualiser is not None:
+            summary["frames"] = {"rendered": visualiser.submitted,
+                                 "dropped": visualiser.dropped}
+        if live is not None:
+            summary["live"] = live.stats()
+        if recorder is not None:
+            summary["recording"] = {"written": recorder.written, "dropped": recorder.dropped,
+                                    "errors": recorder.errors}
+        (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    finally:
         if movie is not None:
             movie.join()
+    if plot_error is not None:
+        raise plot_error
+    if options.artifacts:
         _report(out_dir, summary)
     summary["out_dir"] = str(out_dir)
     return summary
