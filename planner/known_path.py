@@ -52,22 +52,24 @@ class KnownPathMission:
         """The path from the map when the map has changed since the last build (None: nothing
         new, or no path can be made yet, or the mission is over)."""
         cones = map_state.cones
-        if self.start_pose is None or self.done or len(cones) == self._cones_seen:
+        mapped = cones.ids >= 0  # the landmarks: the camera's tentative cones are for exploring
+        xy, colour, size = cones.xy_m[mapped], cones.colour[mapped], cones.size[mapped]
+        if self.start_pose is None or self.done or len(xy) == self._cones_seen:
             return None
-        self._cones_seen = len(cones)
+        self._cones_seen = len(xy)
         c, car = self.config, self.car
         x, y, yaw = self.start_pose
         front = car.length_m - car.rear_overhang_m
         if self.mission == "acceleration":
             path = acceleration_path(
-                cones.xy_m, cones.colour, cones.size, (x, y), yaw,
+                xy, colour, size, (x, y), yaw,
                 length_m=c.acceleration_length_m,
                 stop_after_finish_m=c.acceleration_stop_after_finish_m,
                 lane_width_m=c.acceleration_lane_width_m, front_m=front,
                 end_clearance_m=c.mission_end_clearance_m)
         else:
             path = skidpad_path(
-                cones.xy_m, cones.colour, cones.size, (x, y), yaw,
+                xy, colour, size, (x, y), yaw,
                 inner_diameter_m=c.skidpad_inner_diameter_m,
                 lane_width_m=c.skidpad_lane_width_m,
                 stop_after_centre_m=c.skidpad_stop_after_centre_m, front_m=front,
