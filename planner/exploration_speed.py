@@ -191,25 +191,25 @@ def passage_room_m(xy_m: FloatArray, heading_rad: FloatArray, cones_xy_m: FloatA
     cos_h, sin_h = np.cos(heading_rad), np.sin(heading_rad)
     centres = xy + mid * np.stack([cos_h, sin_h], axis=1)
     near = cKDTree(cones).query_ball_point(centres, reach)
-    r2 = required_m * required_m
-    for i in range(m):
-        if not near[i]:
-            continue
-        rel = cones[near[i]] - xy[i]
-        along = rel[:, 0] * cos_h[i] + rel[:, 1] * sin_h[i]
-        across = -rel[:, 0] * sin_h[i] + rel[:, 1] * cos_h[i]
-        w = along[:, None] - offs[None, :]  # (n, K): each cone from each circle, along
-        half = np.sqrt(np.maximum(r2 - w * w, 0.0)).max(axis=1)  # the widest circle's reach
-        hit = half > 0.0
-        if not hit.any():
-            continue
-        lo, hi = across[hit] - half[hit], across[hit] + half[hit]
-        if np.any((lo <= 0.0) & (hi >= 0.0)):
-            room[i] = 0.0
-            continue
-        left = lo[lo > 0.0].min(initial=max_offset_m)
-        right = -hi[hi < 0.0].max(initial=-max_offset_m)
-        room[i] = 2.0 * min(left, right, max_offset_m)
+    counts = np.fromiter((len(n) for n in near), np.int64, m)
+    if not counts.any():
+        return room
+    # every (point, cone within reach) pair at once, grouped by point
+    point = np.repeat(np.arange(m), counts)
+    rel = cones[np.concatenate([n for n in near if n])] - xy[point]
+    c, s = cos_h[point], sin_h[point]
+    along = rel[:, 0] * c + rel[:, 1] * s
+    across = -rel[:, 0] * s + rel[:, 1] * c
+    w = along[:, None] - offs[None, :]  # (pairs, K): each cone from each circle, along
+    half = np.sqrt(np.maximum(required_m * required_m - w * w, 0.0)).max(axis=1)
+    hit = half > 0.0  # the widest circle's reach across
+    point, lo, hi = point[hit], across[hit] - half[hit], across[hit] + half[hit]
+    left = np.full(m, max_offset_m)
+    np.minimum.at(left, point[lo > 0.0], lo[lo > 0.0])
+    right = np.full(m, max_offset_m)
+    np.minimum.at(right, point[hi < 0.0], -hi[hi < 0.0])
+    room = 2.0 * np.minimum(np.minimum(left, right), max_offset_m)
+    room[point[(lo <= 0.0) & (hi >= 0.0)]] = 0.0  # the path itself is too near a cone
     return room
 
 
