@@ -74,7 +74,8 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     from mapper.mapper import Mapper
 
     config = MapperConfig()
-    assert config.tentative.enabled  # on by default (issue 45)
+    assert not config.tentative.enabled  # off by default: the SLAM drifts more (issue 45)
+    config.tentative.enabled = True
     mapper = Mapper(config, CarConfig())
     cones = tuple(ConeDetection(0.0, 18.0, y, colour=ConeColour.BLUE, confidence=0.9)
                   for y in (2.0, -2.0))
