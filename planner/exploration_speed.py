@@ -236,7 +236,10 @@ def narrow_passage_limit_mps(frame: SplineBaseframe, cones_xy_m: FloatArray | No
     margin (``generator``) over their widest offsets (``offsets_wide_max_m``), each point
     taking the lesser room of the measured points on either side; narrow below
     ``exploration_narrow_room_m``, driven at ``exploration_narrow_speed_mps``. A narrow room
-    of 0 or no cones: no limit."""
+    of 0 or no cones: no limit. The planner hands the map's cones only when the camera's
+    tentative cones are among them: with the LiDAR's landmarks alone the seen-track invariant
+    already holds the car back in a narrow passage (EUFS small_track_2 was clean without this
+    limit, and hit a cone in 1 of 3 seeds with it)."""
     m = len(frame.s_m)
     c = config
     if cones_xy_m is None or len(cones_xy_m) == 0 or c.exploration_narrow_room_m <= 0.0:
