@@ -110,11 +110,14 @@ class RayRunner:
 
         self._ray = ray
         self._task = ray.remote(num_cpus=1, max_retries=0)(run_one)
+        self._config: tuple[AppConfig, Any] | None = None
+        """The configuration last put in the object store, and its reference."""
         self.info = info
 
     def submit(self, config: AppConfig, specs: list[RunSpec]) -> dict[Any, RunSpec]:
-        config_ref = self._ray.put(config)
-        return {self._task.remote(config_ref, spec): spec for spec in specs}
+        if self._config is None or self._config[0] is not config:  # tune submits per trial
+            self._config = (config, self._ray.put(config))
+        return {self._task.remote(self._config[1], spec): spec for spec in specs}
 
     def finished(self, handles: list[Any]) -> list[Any]:
         ready, _ = self._ray.wait(handles, num_returns=1)

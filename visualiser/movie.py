@@ -13,6 +13,9 @@ from common.errors import FsdError
 
 log = logging.getLogger(__name__)
 
+STREAM_SUFFIXES = (".mp4", ".mkv", ".webm")
+"""Movies :class:`MovieStream` writes (a GIF is made from the PNG frames at the end)."""
+
 
 def make_movie(frames: list[Path], out_path: Path, fps: float = 10.0) -> Path:
     """Write ``frames`` (PNG paths, in order) as a movie; the suffix picks MP4 or GIF."""
@@ -36,10 +39,6 @@ def make_movie(frames: list[Path], out_path: Path, fps: float = 10.0) -> Path:
     if not stream.close():
         raise FsdError(f"{out_path}: the movie could not be written (see the log)")
     return out_path
-
-
-STREAM_SUFFIXES = (".mp4", ".mkv", ".webm")
-"""Movies :class:`MovieStream` writes (a GIF is made from the PNG frames at the end)."""
 
 
 class MovieStream:
