@@ -331,9 +331,14 @@ class SlamConfig:
     """The 'zero-noise' same-point measurement's floor (m): seed 5.3.2 uses none."""
     wheel_speed_sigma_mps: float = 0.07
     """Rear wheel speed noise (m/s): sensor noise plus longitudinal slip."""
-    wheel_speed_sigma_fraction: float = 0.0
+    wheel_speed_sigma_fraction: float = 0.02
     """Rear wheel speed noise proportional to the speed (white slip noise, a fraction); the
-    variance is ``wheel_speed_sigma_mps^2 + (fraction vx)^2``."""
+    variance is ``wheel_speed_sigma_mps^2 + (fraction vx)^2``. 0.02: each simulated wheel reads
+    1 % off at random (``sim.can.wheel_slip_sigma``), and the longitudinal slip model
+    (``wheel_slip_per_mps2``, a steady-state fit) errs by about as much again while the car
+    drives and brakes hard. At 0 the absolute sigma alone says 0.6 % at 12 m/s, tighter than
+    the sensor (issue 45: FSG, seeds 1-16, mean pose RMSE of the explored lap 0.127 m at 0 with
+    the camera's tentative cones on, 0.096 m at 0.02)."""
     wheel_slip_per_mps2: float = 0.002
     """Longitudinal slip of the rear tyres per m/s^2 of the axle's longitudinal acceleration:
     the wheels read ``vx (1 + k a_x)`` (faster when driving, slower when braking); the slip at
@@ -347,8 +352,12 @@ class SlamConfig:
     rear_slip_saturation: bool = True
     """The slip angle grows as atanh(a_y / car.max_lateral_accel_mps2) near the grip limit
     (tanh tyre law); False: linear in a_y."""
-    lateral_slip_sigma_fraction: float = 0.1
-    """The lateral constraint's sigma grows by this fraction of the modelled slip speed."""
+    lateral_slip_sigma_fraction: float = 0.5
+    """The lateral constraint's sigma grows by this fraction of the modelled slip speed: the
+    steady-state tyre model (``rear_slip_rad_per_mps2``) is rough while the slip builds up and
+    decays at a bend's entry and exit and near the grip limit. The UKF's value (one tyre model,
+    one uncertainty); it was 0.1 until the car explored at the pace the camera's view allows
+    (issue 45), where 0.1 made the SLAM overconfident in the bends."""
     imu_bias_states: bool = True
     """Estimate the gyro z and accelerometer x, y biases as states (the car may start moving
     without a standstill to calibrate them)."""
@@ -374,15 +383,17 @@ class TentativeConfig:
     """Camera cones beyond the LiDAR's landmarks, published for the exploring planner
     (:mod:`mapper.tentative_cones`, issue 45): never in the SLAM, gone at the map freeze."""
 
-    enabled: bool = False
-    """Off by default: on, the track in view ends 17-19 m ahead instead of 14-15 m and
-    autocross runs faster (shared and generated layouts, seeds 1-3: median explored ratio 2.20
-    -> 1.85, all clean), but the explored lap's SLAM drifts more (FSG, 16 seeds: mean pose
-    RMSE 0.102 -> 0.127 m; seed 11 0.084 -> 0.134 m, over issue 45's 0.10 m): the car corners
-    harder in the bends it now sees into, where the SLAM's slip model errs, and part of it is
-    not explained yet (docs/driving.md). Its earlier cone hits on a community layout (EUFS
-    small_track_2, a narrow bend) were the speed a farther view allowed in a narrow passage:
-    ``planner.exploration_narrow_room_m`` slows such a passage, on or off."""
+    enabled: bool = True
+    """On: the track in view ends 17-19 m ahead instead of 14-15 m (the camera sees 20 m, the
+    simulated VLP-16's landmarks begin 14-15 m ahead), and the unseen lap runs faster (autocross,
+    the four shared closed tracks and gen:1..20, seeds 1-3: median explored ratio 2.20 -> 1.86,
+    worst 2.66 -> 2.21, all clean). The car then corners harder in the bends it sees into; the
+    SLAM's slip noise (``mapper.slam.lateral_slip_sigma_fraction``,
+    ``wheel_speed_sigma_fraction``) is what keeps the explored lap's drift where it was with the
+    landmarks alone (FSG, 16 seeds: mean pose RMSE 0.127 m with the old noise, 0.096 m with
+    it). A narrow passage among tentative cones is slowed
+    (``planner.exploration_narrow_room_m``): EUFS small_track_2's 2.5 m wide bend hit its outer
+    cones at the speed a farther view allowed."""
     landmark_gate_m: float = 1.0
     """A camera cone this near (m) a landmark is that landmark (its colour vote only)."""
     gate_m: float = 1.0

@@ -110,6 +110,9 @@ class Mapper:
         self.loop_closed = False
         self._cones_cache: ConeMap = ConeMap.empty()
         self._cones_dirty = False
+        self._positions_dirty = False
+        """The landmarks moved since the cone map was last built (a colour vote alone does not
+        move them: the tentative cones need only where the landmarks are)."""
         self.tentative = TentativeCones(config.tentative)
         """Camera cones beyond the landmarks, published while exploring
         (:mod:`mapper.tentative_cones`)."""
@@ -254,6 +257,7 @@ class Mapper:
             cones = self.object_filter.filter(r.cones)
             result = self.estimator.update_lidar(cones, r.timestamp_s, self.odometer_m)
             self._cones_dirty |= result.map_changed
+            self._positions_dirty |= result.map_changed
             if result.loop_closed:
                 self.loop_closed = True
                 self.freeze()
@@ -350,7 +354,7 @@ class Mapper:
 
     def _cones(self) -> ConeMap:
         if self._cones_dirty:
-            self._cones_dirty = False
+            self._cones_dirty = self._positions_dirty = False
             self._cones_cache = self.estimator.cone_map()
         return self._cones_cache
 
@@ -360,9 +364,10 @@ class Mapper:
         pose = self.estimator.pose()
         xy = np.array([(c.x_m, c.y_m) for c in cones], np.float64)
         world = vehicle_to_world(xy, pose.x_m, pose.y_m, pose.yaw_rad).reshape(-1, 2)
+        landmarks = self._cones() if self._positions_dirty else self._cones_cache
         self.tentative.add(world, np.array([int(c.colour) for c in cones], np.int64),
                            np.array([c.confidence for c in cones], np.float64), t_s,
-                           self._cones().xy_m, (pose.x_m, pose.y_m))
+                           landmarks.xy_m, (pose.x_m, pose.y_m))
         self._published = None
 
     def _published_cones(self) -> ConeMap:

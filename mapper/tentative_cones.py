@@ -40,6 +40,11 @@ class TentativeCones:
         self.last_seen_s = np.zeros(0)
         self.ids = np.zeros(0, np.int64)
         self._next_id = -1
+        self._version = 0
+        """Counts the changes of the cones kept, for :meth:`cone_map`'s cache."""
+        self._shown: tuple[int, FloatArray, ConeMap] | None = None
+        self._landmarks = _Nearby(np.zeros((0, 2)))
+        """The last landmarks asked about: the Mapper hands the same array until they move."""
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -51,8 +56,9 @@ class TentativeCones:
         :class:`ConeColour` (n,) and confidence (n,) at ``t_s``; ``landmarks_xy_m`` (M, 2) the
         map's landmarks, ``car_xy_m`` the car's position (m)."""
         c = self.config
+        landmarks = self._nearby(landmarks_xy_m)
         xy = np.asarray(world_xy_m, np.float64).reshape(-1, 2)
-        explained = _near(xy, landmarks_xy_m, c.landmark_gate_m)
+        explained = landmarks.near(xy, c.landmark_gate_m)
         xy, colours, confidences = xy[~explained], colours[~explained], confidences[~explained]
         taken = np.zeros(len(xy), bool)
         if len(xy) and len(self):
@@ -75,7 +81,7 @@ class TentativeCones:
             self._next_id -= len(new)
         near_car = np.hypot(self.xy_m[:, 0] - car_xy_m[0],
                             self.xy_m[:, 1] - car_xy_m[1]) < c.min_range_m
-        self._keep(~(near_car | _near(self.xy_m, landmarks_xy_m, c.landmark_gate_m)
+        self._keep(~(near_car | landmarks.near(self.xy_m, c.landmark_gate_m)
                      | (t_s - self.last_seen_s > c.max_age_s)))
 
     def clear(self) -> None:
@@ -85,9 +91,17 @@ class TentativeCones:
     def cone_map(self, landmarks_xy_m: FloatArray) -> ConeMap:
         """Those seen in ``min_frames`` frames and still no landmark's, as a :class:`ConeMap`
         (covariance ``sigma_m`` squared, size unknown, confidence ``confidence``, ids < 0)."""
+        if (self._shown is not None and self._shown[0] == self._version
+                and self._shown[1] is landmarks_xy_m):
+            return self._shown[2]
+        cone_map = self._cone_map(landmarks_xy_m)
+        self._shown = (self._version, landmarks_xy_m, cone_map)
+        return cone_map
+
+    def _cone_map(self, landmarks_xy_m: FloatArray) -> ConeMap:
         c = self.config
-        show = (self.frames >= c.min_frames) & ~_near(self.xy_m, landmarks_xy_m,
-                                                       c.landmark_gate_m)
+        show = self.frames >= c.min_frames
+        show[show] = ~self._nearby(landmarks_xy_m).near(self.xy_m[show], c.landmark_gate_m)
         n = int(np.count_nonzero(show))
         if n == 0:
             return ConeMap.empty()
@@ -97,7 +111,13 @@ class TentativeCones:
                        size=np.full(n, int(ConeSize.UNKNOWN), np.int64),
                        confidence=np.full(n, c.confidence), ids=self.ids[show].copy())
 
+    def _nearby(self, landmarks_xy_m: FloatArray) -> _Nearby:
+        if landmarks_xy_m is not self._landmarks.xy_m:
+            self._landmarks = _Nearby(landmarks_xy_m)
+        return self._landmarks
+
     def _keep(self, keep: NDArray[np.bool_]) -> None:
+        self._version += 1
         self.xy_m = self.xy_m[keep]
         self.frames = self.frames[keep]
         self.votes = self.votes[keep]
@@ -117,11 +137,24 @@ def with_tentative(landmarks: ConeMap, tentative: ConeMap) -> ConeMap:
                    ids=np.concatenate([landmarks.ids, tentative.ids]))
 
 
-def _near(xy_m: FloatArray, others_xy_m: FloatArray, gate_m: float) -> NDArray[np.bool_]:
-    """Which points (n, 2) have one of ``others_xy_m`` (m, 2) within ``gate_m`` (m)."""
-    if len(xy_m) == 0 or len(others_xy_m) == 0:
-        return np.zeros(len(xy_m), bool)
-    from scipy.spatial import cKDTree
+class _Nearby:
+    """Points (m, 2) (m) to ask which other points lie near them: a few hundred landmarks
+    against the few cones of a camera frame, where one distance matrix over the landmarks in
+    the points' box costs less than a KD-tree's query."""
 
-    d, _ = cKDTree(others_xy_m).query(xy_m, distance_upper_bound=gate_m)
-    return np.asarray(np.isfinite(d), bool)
+    def __init__(self, xy_m: FloatArray) -> None:
+        self.xy_m = np.asarray(xy_m, np.float64).reshape(-1, 2)
+
+    def near(self, xy_m: FloatArray, gate_m: float) -> NDArray[np.bool_]:
+        """Which points (n, 2) have one of these within ``gate_m`` (m)."""
+        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        if len(xy) == 0 or len(self.xy_m) == 0:
+            return np.zeros(len(xy), bool)
+        lo, hi = xy.min(axis=0) - gate_m, xy.max(axis=0) + gate_m
+        mine = self.xy_m
+        mine = mine[(mine[:, 0] >= lo[0]) & (mine[:, 0] <= hi[0])
+                    & (mine[:, 1] >= lo[1]) & (mine[:, 1] <= hi[1])]
+        if len(mine) == 0:
+            return np.zeros(len(xy), bool)
+        d2 = ((xy[:, None, :] - mine[None, :, :]) ** 2).sum(axis=2)
+        return np.asarray(d2.min(axis=1) <= gate_m * gate_m, bool)

@@ -183,33 +183,36 @@ def passage_room_m(xy_m: FloatArray, heading_rad: FloatArray, cones_xy_m: FloatA
     cones = np.asarray(cones_xy_m, np.float64).reshape(-1, 2)
     if m == 0 or len(cones) == 0:
         return room
-    from scipy.spatial import cKDTree  # local: only the exploring profile needs it
-
     offs = np.asarray(circle_offsets_m, np.float64)
     mid = 0.5 * (float(offs.max()) + float(offs.min()))
     reach = 0.5 * (float(offs.max()) - float(offs.min())) + required_m + max_offset_m
     cos_h, sin_h = np.cos(heading_rad), np.sin(heading_rad)
     centres = xy + mid * np.stack([cos_h, sin_h], axis=1)
-    near = cKDTree(cones).query_ball_point(centres, reach)
-    counts = np.fromiter((len(n) for n in near), np.int64, m)
-    if not counts.any():
+    # the map holds the whole lap seen so far, the path a few tens of metres of it: every
+    # (point, cone) pair of the cones in the path's box at once (no KD-tree's query per call)
+    lo, hi = centres.min(axis=0) - reach, centres.max(axis=0) + reach
+    cones = cones[(cones[:, 0] >= lo[0]) & (cones[:, 0] <= hi[0])
+                  & (cones[:, 1] >= lo[1]) & (cones[:, 1] <= hi[1])]
+    if len(cones) == 0:
         return room
-    # every (point, cone within reach) pair at once, grouped by point
-    point = np.repeat(np.arange(m), counts)
-    rel = cones[np.concatenate([n for n in near if n])] - xy[point]
+    d2 = ((centres[:, None, :] - cones[None, :, :]) ** 2).sum(axis=2)
+    point, cone = np.nonzero(d2 <= reach * reach)
+    if len(point) == 0:
+        return room
+    rel = cones[cone] - xy[point]
     c, s = cos_h[point], sin_h[point]
     along = rel[:, 0] * c + rel[:, 1] * s
     across = -rel[:, 0] * s + rel[:, 1] * c
     w = along[:, None] - offs[None, :]  # (pairs, K): each cone from each circle, along
     half = np.sqrt(np.maximum(required_m * required_m - w * w, 0.0)).max(axis=1)
     hit = half > 0.0  # the widest circle's reach across
-    point, lo, hi = point[hit], across[hit] - half[hit], across[hit] + half[hit]
+    point, lo_m, hi_m = point[hit], across[hit] - half[hit], across[hit] + half[hit]
     left = np.full(m, max_offset_m)
-    np.minimum.at(left, point[lo > 0.0], lo[lo > 0.0])
+    np.minimum.at(left, point[lo_m > 0.0], lo_m[lo_m > 0.0])
     right = np.full(m, max_offset_m)
-    np.minimum.at(right, point[hi < 0.0], -hi[hi < 0.0])
+    np.minimum.at(right, point[hi_m < 0.0], -hi_m[hi_m < 0.0])
     room = 2.0 * np.minimum(np.minimum(left, right), max_offset_m)
-    room[point[(lo <= 0.0) & (hi >= 0.0)]] = 0.0  # the path itself is too near a cone
+    room[point[(lo_m <= 0.0) & (hi_m >= 0.0)]] = 0.0  # the path itself is too near a cone
     return room
 
 
@@ -245,7 +248,9 @@ def narrow_passage_limit_mps(frame: SplineBaseframe, cones_xy_m: FloatArray | No
     if cones_xy_m is None or len(cones_xy_m) == 0 or c.exploration_narrow_room_m <= 0.0:
         return np.full(m, np.inf)
     stride = max(int(round(ROOM_STEP_M / frame.step_m)), 1)
-    idx = np.unique(np.r_[np.arange(0, m, stride), m - 1])
+    idx = np.arange(0, m, stride)
+    if idx[-1] != m - 1:
+        idx = np.append(idx, m - 1)
     room = passage_room_m(frame.xy_m[idx], frame.heading_rad[idx], cones_xy_m,
                           generator.circle_offsets_m, generator.required_m,
                           c.offsets_wide_max_m)

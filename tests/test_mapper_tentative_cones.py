@@ -74,8 +74,7 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     from mapper.mapper import Mapper
 
     config = MapperConfig()
-    assert not config.tentative.enabled  # off by default: the SLAM drifts more (issue 45)
-    config.tentative.enabled = True
+    assert config.tentative.enabled  # on by default (issue 45)
     mapper = Mapper(config, CarConfig())
     cones = tuple(ConeDetection(0.0, 18.0, y, colour=ConeColour.BLUE, confidence=0.9)
                   for y in (2.0, -2.0))
@@ -94,3 +93,22 @@ def test_the_mapper_publishes_them_while_exploring_and_never_after_the_freeze() 
     off._apply(CameraCones(0.0, cones))
     off._apply(CameraCones(0.05, cones))
     assert len(off._make_state(0.05).cones) == 0
+
+
+def test_the_published_cones_follow_every_change_of_the_cones_and_the_landmarks() -> None:
+    """:meth:`TentativeCones.cone_map` is kept between changes (the planner asks at every
+    plan): a new cone, a cone a landmark now explains and a new landmark array each show."""
+    tc = TentativeCones(TentativeConfig(min_frames=1))
+    no_landmarks = np.zeros((0, 2))
+    tc.add(np.array([[18.0, 2.0]]), np.array([int(BLUE)]), np.array([0.9]), 0.0,
+           no_landmarks, (0.0, 0.0))
+    first = tc.cone_map(no_landmarks)
+    assert len(first) == 1 and tc.cone_map(no_landmarks) is first
+    tc.add(np.array([[18.0, -2.0]]), np.array([int(BLUE)]), np.array([0.9]), 0.05,
+           no_landmarks, (0.0, 0.0))
+    assert len(tc.cone_map(no_landmarks)) == 2
+    landmark_there = np.array([[18.0, 2.1]])
+    shown = tc.cone_map(landmark_there)
+    assert len(shown) == 1 and shown.xy_m[0, 1] == -2.0
+    moved = np.array([[18.0, -2.1]])  # another array: asked again, not the cached answer
+    assert tc.cone_map(moved).xy_m[0, 1] == 2.0
