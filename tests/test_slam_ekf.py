@@ -61,8 +61,11 @@ def test_fsg_nees_inside_the_95_percent_band(fsg_run: SlamRun) -> None:
     """Seeds 0-2 with cones mapped to 11.5 m: 0.88, 0.93, 0.99 of the steps inside the
     two-sided 95 % band; the mean NEES (0.9-1.9, below 3) says the filter errs on the cautious
     side. Mapped to 15 m (issue 45) seed 1's pose RMSE fell from 0.12 to 0.037 m and the band
-    holds 0.82 of the steps: 12 % below it (cautious), 5.8 % above (as at 11.5 m, 5.6 %). The
-    filter must not be overconfident: at most 7.5 % above the band's top."""
+    holds 0.82 of the steps: 12 % below it (cautious), 5.8 % above (as at 11.5 m, 5.6 %). With
+    the camera's tentative cones the drive is faster, and with the slip noise that came with
+    them (``lateral_slip_sigma_fraction`` 0.5, ``wheel_speed_sigma_fraction`` 0.02) seed 1
+    holds 0.81: 11.5 % below, 7.45 % above (seeds 0 and 2: 4.5 and 5.3 % above). The filter
+    must not be overconfident: at most 7.5 % above the band's top."""
     lo, hi = chi2.ppf([0.025, 0.975], 3)
     assert fsg_run.nees_in_band >= 0.80
     assert float(np.mean(fsg_run.nees_values > hi)) <= 0.075
