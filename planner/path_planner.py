@@ -33,13 +33,13 @@ from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.race_job import BackgroundRace, RaceLine, build_race_line
 from planner.speed_profile import (
     SpeedLimits,
-    curvature_speed_limit_mps,
     forward_backward_speed_mps,
     late_cover_table,
     steering_lock_cap,
     steering_rate_speed_limit_mps,
     two_level_speed_mps,
 )
+from planner.target_states import empty_targets, timed_targets
 from planner.track_model import TrackModel, self_intersects
 from planner.waypoints import WaypointBook, waypoints_from_cones
 
@@ -47,12 +47,6 @@ logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 
-
-
-def empty_targets() -> TargetStates:
-    """A manoeuvre with no states."""
-    z = np.zeros(0)
-    return TargetStates(z, z, z, z, z, z)
 
 
 class PathPlanner:
@@ -567,26 +561,8 @@ class PathPlanner:
 
     def _targets(self, cand: Candidate, now_s: float, stop: bool) -> TargetStates:
         """Discretise a candidate into timed target states with friction-limited speeds."""
-        s = cand.s_m
-        ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
-        v_lim = np.minimum(self.speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm,
-                                                                      self.limits))
-        v_lim = np.minimum(v_lim, cand.speed_cap_mps)
-        # a stop: brake (within the limits) to stand at the end of the candidate
-        v_end = 0.0 if stop else float(v_lim[-1])
-        # backward pass: every target can be reached with the (safety-scaled) brakes
-        v = v_lim.copy()
-        v[-1] = min(v[-1], v_end)
-        for i in range(len(v) - 2, -1, -1):
-            v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * self.limits.brake_mps2 * ds[i]))
-        v = np.maximum(v, 0.0)
-        if not stop:
-            v = np.maximum(v, min(self.config.min_plan_speed_mps, float(v_lim.min())))
-        v_mean = np.maximum(0.5 * (v[1:] + v[:-1]), 0.5)
-        t = now_s + np.concatenate([[0.0], np.cumsum(ds / v_mean)])
-        return TargetStates(t_s=t, x_m=cand.xy_m[:, 0], y_m=cand.xy_m[:, 1],
-                            yaw_rad=cand.heading_rad, speed_mps=v,
-                            curvature_1pm=cand.curvature_1pm)
+        return timed_targets(cand, self.speed_at, self.limits, now_s, stop,
+                             self.config.min_plan_speed_mps)
 
     def _empty_plan(self, now_s: float, waypoints: FloatArray | None = None) -> Plan:
         return Plan(
