@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.messages import ConeMap, ConeSize
+from common.proximity import near_any
 from mapper.colour_votes import voted_colours
 from mapper.config import TentativeConfig
 from mapper.evaluation import match_cones
@@ -43,8 +44,6 @@ class TentativeCones:
         self._version = 0
         """Counts the changes of the cones kept, for :meth:`cone_map`'s cache."""
         self._shown: tuple[int, FloatArray, ConeMap] | None = None
-        self._landmarks = _Nearby(np.zeros((0, 2)))
-        """The last landmarks asked about: the Mapper hands the same array until they move."""
 
     def __len__(self) -> int:
         return len(self.frames)
@@ -56,9 +55,8 @@ class TentativeCones:
         :class:`ConeColour` (n,) and confidence (n,) at ``t_s``; ``landmarks_xy_m`` (M, 2) the
         map's landmarks, ``car_xy_m`` the car's position (m)."""
         c = self.config
-        landmarks = self._nearby(landmarks_xy_m)
         xy = np.asarray(world_xy_m, np.float64).reshape(-1, 2)
-        explained = landmarks.near(xy, c.landmark_gate_m)
+        explained = near_any(xy, landmarks_xy_m, c.landmark_gate_m)
         xy, colours, confidences = xy[~explained], colours[~explained], confidences[~explained]
         taken = np.zeros(len(xy), bool)
         if len(xy) and len(self):
@@ -81,7 +79,7 @@ class TentativeCones:
             self._next_id -= len(new)
         near_car = np.hypot(self.xy_m[:, 0] - car_xy_m[0],
                             self.xy_m[:, 1] - car_xy_m[1]) < c.min_range_m
-        self._keep(~(near_car | landmarks.near(self.xy_m, c.landmark_gate_m)
+        self._keep(~(near_car | near_any(self.xy_m, landmarks_xy_m, c.landmark_gate_m)
                      | (t_s - self.last_seen_s > c.max_age_s)))
 
     def clear(self) -> None:
@@ -101,7 +99,7 @@ class TentativeCones:
     def _cone_map(self, landmarks_xy_m: FloatArray) -> ConeMap:
         c = self.config
         show = self.frames >= c.min_frames
-        show[show] = ~self._nearby(landmarks_xy_m).near(self.xy_m[show], c.landmark_gate_m)
+        show[show] = ~near_any(self.xy_m[show], landmarks_xy_m, c.landmark_gate_m)
         n = int(np.count_nonzero(show))
         if n == 0:
             return ConeMap.empty()
@@ -110,11 +108,6 @@ class TentativeCones:
                        colour=voted_colours(self.votes[show]),
                        size=np.full(n, int(ConeSize.UNKNOWN), np.int64),
                        confidence=np.full(n, c.confidence), ids=self.ids[show].copy())
-
-    def _nearby(self, landmarks_xy_m: FloatArray) -> _Nearby:
-        if landmarks_xy_m is not self._landmarks.xy_m:
-            self._landmarks = _Nearby(landmarks_xy_m)
-        return self._landmarks
 
     def _keep(self, keep: NDArray[np.bool_]) -> None:
         self._version += 1
@@ -135,26 +128,3 @@ def with_tentative(landmarks: ConeMap, tentative: ConeMap) -> ConeMap:
                    size=np.concatenate([landmarks.size, tentative.size]),
                    confidence=np.concatenate([landmarks.confidence, tentative.confidence]),
                    ids=np.concatenate([landmarks.ids, tentative.ids]))
-
-
-class _Nearby:
-    """Points (m, 2) (m) to ask which other points lie near them: a few hundred landmarks
-    against the few cones of a camera frame, where one distance matrix over the landmarks in
-    the points' box costs less than a KD-tree's query."""
-
-    def __init__(self, xy_m: FloatArray) -> None:
-        self.xy_m = np.asarray(xy_m, np.float64).reshape(-1, 2)
-
-    def near(self, xy_m: FloatArray, gate_m: float) -> NDArray[np.bool_]:
-        """Which points (n, 2) have one of these within ``gate_m`` (m)."""
-        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
-        if len(xy) == 0 or len(self.xy_m) == 0:
-            return np.zeros(len(xy), bool)
-        lo, hi = xy.min(axis=0) - gate_m, xy.max(axis=0) + gate_m
-        mine = self.xy_m
-        mine = mine[(mine[:, 0] >= lo[0]) & (mine[:, 0] <= hi[0])
-                    & (mine[:, 1] >= lo[1]) & (mine[:, 1] <= hi[1])]
-        if len(mine) == 0:
-            return np.zeros(len(xy), bool)
-        d2 = ((xy[:, None, :] - mine[None, :, :]) ** 2).sum(axis=2)
-        return np.asarray(d2.min(axis=1) <= gate_m * gate_m, bool)

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from common.proximity import pairs_within
 from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
 
@@ -188,15 +189,7 @@ def passage_room_m(xy_m: FloatArray, heading_rad: FloatArray, cones_xy_m: FloatA
     reach = 0.5 * (float(offs.max()) - float(offs.min())) + required_m + max_offset_m
     cos_h, sin_h = np.cos(heading_rad), np.sin(heading_rad)
     centres = xy + mid * np.stack([cos_h, sin_h], axis=1)
-    # the map holds the whole lap seen so far, the path a few tens of metres of it: every
-    # (point, cone) pair of the cones in the path's box at once (no KD-tree's query per call)
-    lo, hi = centres.min(axis=0) - reach, centres.max(axis=0) + reach
-    cones = cones[(cones[:, 0] >= lo[0]) & (cones[:, 0] <= hi[0])
-                  & (cones[:, 1] >= lo[1]) & (cones[:, 1] <= hi[1])]
-    if len(cones) == 0:
-        return room
-    d2 = ((centres[:, None, :] - cones[None, :, :]) ** 2).sum(axis=2)
-    point, cone = np.nonzero(d2 <= reach * reach)
+    point, cone = pairs_within(centres, cones, reach)  # every (point, cone in reach) pair
     if len(point) == 0:
         return room
     rel = cones[cone] - xy[point]
