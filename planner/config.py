@@ -120,7 +120,9 @@ class PlannerConfig:
     (:mod:`planner.exploration_speed`). 0.75 s: its preview (0.25 s) and the span its
     feedforward reads the slope over (0.5 s). FSG autocross seed 1: 49.7 s at 0 (the car
     braked all the time for an end of the track that moves on), 42.8 s at 0.75."""
-    exploration_speed_lead_max_m: float = 8.0
+    exploration_speed_lead_max_m: float = 12.0
+    """The lead's longest (m): 0.75 s at 16 m/s. At 8 m (0.75 s at 10.7 m/s) the controller
+    read a stop's slope beyond the lead at the 12 m/s the invariant allows, and braked."""
     exploration_curvature_window_m: float = 0.0
     """While exploring, the path's curvature sets its speed without its peaks narrower than
     this (m): the kinks of a path through cones seen partly, not its bends

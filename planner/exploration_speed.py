@@ -17,12 +17,14 @@ slope over the half second beyond. Near the end of the seen track those points a
 end than the car: asking the invariant there held the car a preview's worth of room short of
 what the invariant at the car allows and braked it all the time, on every metre of an unseen
 lap, for an end that moves on as cones come into view (FSG autocross, seed 1: 49.7 s). So
-over ``lead_s`` of driving ahead of the car the limit is the invariant's at the car itself
-(never more), and beyond, the invariant of a point that much nearer the car (42.8 s). The
-car then holds the speed it may drive where it is, and brakes when no new cones come into view
-and its own room shrinks. The supervisor's stop (6 m/s^2, after its reaction, with the late
-cover) stays well inside the brakes' 12 m/s^2, so the speed loop's lag (up to 1 m/s over the
-limit at the car on FSG) does not take the car past where it can stop.
+over ``lead_s`` of driving ahead of the car (at the speed it may drive there) the limit is the
+invariant's at the car itself (never more), and beyond, the invariant of a point that much
+nearer the car (42.8 s); the profile's own standstill at the end of the frame is shifted by
+the same lead (:func:`exploring_end_speed_mps`). The car then holds the speed it may drive
+where it is, and brakes when no new cones come into view and its own room shrinks. The
+supervisor's stop (8 m/s^2, after its reaction, with the late cover) stays inside the brakes'
+12 m/s^2, so the speed loop's lag (up to 1 m/s over the limit at the car on FSG) does not take
+the car past where it can stop.
 
 The path's curvature through cones seen partly (a gate's cone placed a few centimetres off,
 a side seen from far away) carries noise that a bend does not: a curvature spike over a metre
@@ -67,13 +69,13 @@ def seen_track_speed_mps(remaining_m: ArrayLike, room_m: FloatArray, speed_mps: 
     :func:`stop_room_m` on a grid of speeds), capped at ``top_speed_mps``. ``lead_m`` (m,
     scalar or per point): the point the speed is asked for lies that far ahead of the car (the
     controller's speed preview), so the room counted is that much more (it is the car's).
-    An empty table: no limit but the top speed. Zero at and past the end."""
+    An empty table: no limit but the top speed. Zero past the end, and at it without a lead."""
     rem = np.asarray(remaining_m, np.float64)
     if len(room_m) == 0:
         return np.full(rem.shape, float(top_speed_mps))
     room = np.maximum(rem, 0.0) + np.maximum(np.asarray(lead_m, np.float64), 0.0)
     v = np.interp(room, room_m, speed_mps, left=0.0)
-    v = np.where(rem > 0.0, v, 0.0)
+    v = np.where(rem >= 0.0, v, 0.0)  # at the end itself the room is the lead's alone
     return np.asarray(np.minimum(v, top_speed_mps), np.float64)
 
 
@@ -90,21 +92,36 @@ def speed_limit_along_mps(s_m: FloatArray, length_m: float, room_m: FloatArray,
     """The invariant's speed limit (M,) (m/s) along an exploring frame sampled at ``s_m`` (m)
     of total length ``length_m``, the car at ``car_s_m``: never more than the car may drive
     where it is (:func:`seen_track_speed_mps` of its remaining length); ahead of it, what
-    the invariant allows a point ``lead_s`` of driving (at the limit's own speed, at most
-    ``max_lead_m``) behind each point. So the speed the controller reads up to that far
-    ahead of the car, and its slope there, are the invariant's at the car: the car holds the
-    speed it may drive, instead of braking all the time for an end of the track that moves
-    on as cones come into view."""
+    the invariant allows a point :func:`exploring_lead_m` nearer the car (the distance the
+    controller reads its speed and slope over, at the speed the car may drive). So the speed
+    the controller reads up to that far ahead of the car, and its slope there, are the
+    invariant's at the car: the car holds the speed it may drive, instead of braking all the
+    time for an end of the track that moves on as cones come into view."""
     remaining = length_m - np.asarray(s_m, np.float64)
-    v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps)
-    if lead_s <= 0.0 or max_lead_m <= 0.0:
-        return v
     at_car = float(seen_track_speed_mps(np.array([length_m - car_s_m]), room_m, speed_mps,
                                         top_speed_mps)[0])
-    for _ in range(3):  # the lead at the limit's own speed: a fixed point, a few steps
-        v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps,
-                                 preview_lead_m(v, lead_s, max_lead_m))
+    lead = exploring_lead_m(at_car, lead_s, max_lead_m)
+    v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps, lead)
     return np.asarray(np.minimum(v, at_car), np.float64)
+
+
+def exploring_lead_m(at_car_mps: float, lead_s: float, max_lead_m: float) -> float:
+    """How far (m) the exploring speed limit is shifted ahead of where it holds: the
+    controller's reach (``lead_s`` of driving, at most ``max_lead_m``) at the speed the car
+    may drive where it is, ``at_car_mps`` (m/s). One distance for the whole frame, the
+    standstill at its end included (:func:`exploring_end_speed_mps`): a lead that shrank with
+    each point's own speed put the slope of a stop just inside the controller's reach, and
+    the car braked for it at every plan (gen:10 autocross, seed 1, with the supervisor's
+    stop at 10 m/s^2: 11-12 m/s where the invariant allowed 13-14)."""
+    return float(preview_lead_m(at_car_mps, lead_s, max_lead_m))
+
+
+def exploring_end_speed_mps(lead_m: float, brake_mps2: float) -> float:
+    """The speed (m/s) the profile of an exploring frame ends at: a standstill
+    :func:`exploring_lead_m` beyond its end at the profile's braking ``brake_mps2`` (m/s^2),
+    the same shift as the invariant's. That the car stops within the track seen is the
+    invariant's to keep, at the car itself."""
+    return math.sqrt(2.0 * max(brake_mps2, 0.0) * max(lead_m, 0.0))
 
 
 def speed_curvature(kappa_1pm: ArrayLike, step_m: float, window_m: float) -> FloatArray:
@@ -126,20 +143,27 @@ def speed_curvature(kappa_1pm: ArrayLike, step_m: float, window_m: float) -> Flo
 
 
 def exploring_speed_limit_mps(frame: SplineBaseframe, car_xy: tuple[float, float] | None,
-                              room_m: FloatArray, speed_mps: FloatArray, config: PlannerConfig
-                              ) -> FloatArray:
+                              room_m: FloatArray, speed_mps: FloatArray, config: PlannerConfig,
+                              brake_mps2: float) -> tuple[FloatArray, float]:
     """:func:`speed_limit_along_mps` along the exploring ``frame`` with the car at ``car_xy``
     (m; None: at the frame's start) and the planner's configuration: top speed
     ``exploration_speed_mps``, lead ``exploration_speed_lead_s`` (at most
     ``exploration_speed_lead_max_m``). ``room_m``, ``speed_mps``: the late cover's table
-    (:func:`planner.speed_profile.late_cover_table`)."""
+    (:func:`planner.speed_profile.late_cover_table`). Also the speed (m/s) the profile ends
+    at (:func:`exploring_end_speed_mps` at the profile's braking ``brake_mps2``)."""
     car_s = 0.0
     if car_xy is not None and all(math.isfinite(v) for v in car_xy):
         car_s = float(frame.project(*car_xy)[0])
-    return speed_limit_along_mps(frame.s_m, float(frame.s_m[-1]), room_m, speed_mps,
-                                 config.exploration_speed_mps, car_s,
-                                 config.exploration_speed_lead_s,
-                                 config.exploration_speed_lead_max_m)
+    limit = speed_limit_along_mps(frame.s_m, float(frame.s_m[-1]), room_m, speed_mps,
+                                  config.exploration_speed_mps, car_s,
+                                  config.exploration_speed_lead_s,
+                                  config.exploration_speed_lead_max_m)
+    if len(room_m) == 0:  # no stop rule handed in: the profile stands at the end itself
+        return limit, 0.0
+    at_car = float(limit.max()) if len(limit) else 0.0
+    lead = exploring_lead_m(at_car, config.exploration_speed_lead_s,
+                            config.exploration_speed_lead_max_m)
+    return limit, exploring_end_speed_mps(lead, brake_mps2)
 
 
 def exploring_curvature(kappa_1pm: FloatArray, step_m: float, config: PlannerConfig

@@ -392,16 +392,18 @@ class PathPlanner:
                 frame.s_m, frame.heading_rad, frame.closed, frame.length_m,
                 c.two_level_fast_mps, c.two_level_slow_mps, c.two_level_turn_rad,
                 c.two_level_preview_m))
+        v_end = None if frame.closed else 0.0
         if exploring:  # the invariant: able to stop within the track seen (exploration_speed)
-            extra = np.minimum(extra, exploring_speed_limit_mps(
-                frame, car_xy, self._cover_room_m, self._cover_speed_mps, c))
+            limit, v_end = exploring_speed_limit_mps(frame, car_xy, self._cover_room_m,
+                                                     self._cover_speed_mps, c,
+                                                     self.limits.brake_mps2)
+            extra = np.minimum(extra, limit)
             extra = np.minimum(extra, narrow_passage_limit_mps(frame, cones_xy_m,
                                                                self.generator, c))
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
-                                          v_end_mps=None if frame.closed else 0.0,
-                                          v_limit_mps=extra)
+                                          v_end_mps=v_end, v_limit_mps=extra)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:
         """The baseframe speed profile (m/s) at arc lengths ``s_m``."""

@@ -10,6 +10,8 @@ import pytest
 from planner.config import PlannerConfig
 from planner.exploration_speed import (
     exploring_curvature,
+    exploring_end_speed_mps,
+    exploring_lead_m,
     seen_track_speed_mps,
     speed_curvature,
     speed_limit_along_mps,
@@ -55,9 +57,26 @@ def test_along_the_frame_the_car_never_asks_more_than_it_may_drive_where_it_is(
     # without the lead it would ask less there: the car would brake all the time
     plain = speed_limit_along_mps(s, length, ROOM, SPEEDS, 14.0, car_s_m)
     assert np.all(plain[ahead][1:] < at_car)
-    assert v[-1] == 0.0
-    # further on the limit still falls to the end
-    assert np.all(np.diff(v[s > car_s_m + 8.0]) <= 1e-9)
+    # further on, the limit falls to the end: each point's is the invariant of a point one
+    # lead (the controller's reach at the car's own limit) nearer the car
+    lead = exploring_lead_m(float(at_car), 0.75, 8.0)
+    assert 0.0 < lead <= 8.0
+    beyond = s > car_s_m + lead
+    assert np.all(np.diff(v[beyond]) <= 1e-9)
+    assert np.allclose(v[beyond], seen_track_speed_mps(length - s[beyond], ROOM, SPEEDS,
+                                                       lead_m=lead))
+    assert v[-1] < at_car
+    # the car itself, at the end of the track seen, may not move
+    assert speed_limit_along_mps(s, length, ROOM, SPEEDS, 14.0, length, 0.75, 8.0)[-1] == 0.0
+
+
+def test_the_profile_ends_at_a_standstill_one_lead_beyond_the_end() -> None:
+    """The frame's end speed: a stop at the profile's braking within the lead, the very shift
+    of the invariant; no lead, a standstill at the end."""
+    assert exploring_end_speed_mps(0.0, 8.4) == 0.0
+    v = exploring_end_speed_mps(6.0, 8.4)
+    assert v * v / (2.0 * 8.4) == pytest.approx(6.0)
+    assert exploring_lead_m(12.0, 0.75, 8.0) == 8.0 and exploring_lead_m(4.0, 0.75, 8.0) == 3.0
 
 
 def test_speed_curvature_removes_kinks_not_bends() -> None:

@@ -219,15 +219,16 @@ def test_a_late_plan_is_no_reason_to_stop_a_standing_car() -> None:
 
 
 def test_a_late_plan_caps_the_speed_to_what_its_manoeuvre_lets_the_car_stop_in() -> None:
-    """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 11 m/s (a stop
-    takes 10.1 m, 2.2 m of reaction and the 0.2 m margin: covered): fresh, the car accelerates
-    toward 20 m/s; late, toward no more than 12.2 m/s, the speed from which a controlled stop
-    with its reaction ends within the manoeuvre: less throttle."""
+    """A plan asking 20 m/s with 15 m of manoeuvre left ahead of the car at 11 m/s (a stop at
+    8 m/s^2 takes 7.6 m, 2.2 m of reaction and the 0.2 m margin: covered): fresh, the car
+    accelerates toward 20 m/s; late, toward no more than 13.9 m/s, the speed from which a
+    controlled stop with its reaction ends within the manoeuvre: less throttle."""
     from controller.safety import late_plan_speed_mps, late_stop_distance_m
 
     safety = AppConfig().controller.safety
     v_cap = late_plan_speed_mps(15.0, safety)
-    assert v_cap == pytest.approx(12.18, abs=0.01)
+    assert safety.stop_decel_mps2 == 8.0 and safety.late_plan_reaction_s == 0.2
+    assert v_cap == pytest.approx(13.87, abs=0.01)
     assert late_stop_distance_m(v_cap, safety) == pytest.approx(15.0)
     from controller.safety import manoeuvre_ahead_m
 
