@@ -1,0 +1,49 @@
+"""Issue 45's invariant in the closed loop: exploring at pace, the car can always stop within
+the track it has seen. A straight lane whose cones simply end is the case where it must: the
+whole stack (simulated sensors, SLAM, planner, controller, supervisor) drives it as an
+autocross, and the car has to stand before the last gate it saw, touching nothing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+LANE_END_M = 60.0
+HALF_WIDTH_M = 1.75
+
+
+def _lane_csv(path: Path) -> Path:
+    """An EUFS track file: a 3.5 m lane along +x, a gate every 3 m from x = -6 m to
+    ``LANE_END_M``, nothing beyond; the car starts at the origin heading +x."""
+    rows = ["tag,x,y,direction,x_variance,y_variance,xy_covariance"]
+    for x in np.arange(-6.0, LANE_END_M + 0.1, 3.0):
+        rows.append(f"blue,{x:.1f},{HALF_WIDTH_M},0,0,0,0")
+        rows.append(f"yellow,{x:.1f},{-HALF_WIDTH_M},0,0,0,0")
+    rows.append("car_start,0.0,0.0,0,0,0,0")
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_exploring_a_lane_whose_cones_end_the_car_stands_before_its_last_gate(
+        tmp_path: Path) -> None:
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+
+    track = _lane_csv(tmp_path / "lane.csv")
+    out = tmp_path / "run"
+    summary = run_sim(AppConfig(), SimOptions(track=str(track), seed=1, mission="autocross",
+                                              render=False, record=False, out_dir=out))
+    log = np.load(out / "run_log.npz")
+    x_m, speed_mps = log["truth"][:, 0], log["truth"][:, 3]
+    assert summary["cones_hit"] == 0 and summary["off_track"] == 0
+    # no lap to finish: it stopped because the track it had seen ended, standing
+    assert not summary["finished"]
+    assert summary["stop_reason"] == "no manoeuvre"
+    assert abs(speed_mps[-1]) < 0.2
+    # the rear axle (the vehicle origin) never passed the last gate, and the stop was made
+    # at the end of the lane, not short of it
+    assert x_m.max() < LANE_END_M
+    assert x_m[-1] > LANE_END_M - 5.0
+    # and the lane was driven at pace, not at a crawl: the invariant, not a constant, held it
+    assert speed_mps.max() > 10.0
