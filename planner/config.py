@@ -108,11 +108,15 @@ class PlannerConfig:
     """Top speed (m/s) while exploring an unseen track from its cones: a sanity cap. Below it,
     what sets the pace is being able to stop within the track seen so far
     (``exploration_late_cover_s`` and the supervisor's stop; :mod:`planner.exploration_speed`),
-    the friction circle and the steering on the path; with the cones mapped 14-15 m ahead
-    (issue 45) the invariant alone binds at about 10-11 m/s. 15 m/s took FSSIM's community
+    the friction circle and the steering on the path; with the track seen 17-19 m ahead
+    and the supervisor's stop at 8 m/s^2 the invariant alone allows about 13 m/s on a
+    straight, so on the generated layouts this cap binds. 15 m/s took FSSIM's community
     layout 'thin' (autocross, seed 1) into two cones where its infield runs close beside the
     lane; 12 m/s drives it clean and costs 0.01 of the explored ratio's median (autocross,
-    shared tracks + gen:1..20, seeds 1-3: 2.192 -> 2.204)."""
+    shared tracks + gen:1..20, seeds 1-3: 2.192 -> 2.204). Measured again with the 8 m/s^2
+    stop: at 14 m/s (and at 15 m/s with manoeuvres passing a cone closer than 0.35 m held to
+    12 or 9 m/s) 'thin' seed 1 hit a cone at 12-13 m/s where the car ran 0.2 m from it off
+    its planned path."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it
