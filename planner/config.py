@@ -115,8 +115,8 @@ class PlannerConfig:
     lane; 12 m/s drives it clean and costs 0.01 of the explored ratio's median (autocross,
     shared tracks + gen:1..20, seeds 1-3: 2.192 -> 2.204). Measured again with the 8 m/s^2
     stop: at 14 m/s (and at 15 m/s with manoeuvres passing a cone closer than 0.35 m held to
-    12 or 9 m/s) 'thin' seed 1 hit a cone at 12-13 m/s where the car ran 0.2 m from it off
-    its planned path."""
+    12 or 9 m/s) 'thin' seed 1 hit a cone at 12-13 m/s: the manoeuvres chosen there passed it
+    at the hard clearance (0.2 m from the body), and the car follows each within 0.3 m."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it
