@@ -87,6 +87,18 @@ class PlannerConfig:
     at every point of a candidate (a cone's base radius plus a few centimetres)."""
     cone_clearance_near_m: float = 0.15
     """Hard limit at the car's own position (it is already there): a cone's base radius."""
+    cone_clearance_per_mps: float = 0.03
+    """While exploring, the hard limit ``cone_clearance_m`` of the manoeuvres with the full
+    margin grows by this (m) per m/s the car drives faster than ``cone_clearance_speed_mps``
+    (0.35 m at 13 m/s, 0.38 m at the exploring cap; the mapped laps' racing line keeps its
+    own ``racing_margin_m``, the acceleration run its lane's middle at 25 m/s):
+    the car follows a plan to 2-3 cm, but each plan starts where the last left the car, and a
+    lane that one plan takes at the hard limit the next may take tighter still. Without it,
+    FSSIM's 'thin' was taken at 12-13 m/s (autocross, seed 1, exploring at up to 14 m/s)
+    by manoeuvres passing a cone at the 0.2 m limit, and the car hit it. A lane with less
+    room falls to the slower fallback families."""
+    cone_clearance_speed_mps: float = 8.0
+    """The speed (m/s) above which the hard limit grows (``cone_clearance_per_mps``)."""
     clearance_ramp_m: float = 4.0
     """The margin grows from the near to the full value over this distance along a candidate
     (or over the distance driven in ``clearance_ramp_time_s``, whichever is longer)."""
@@ -104,19 +116,16 @@ class PlannerConfig:
     offsets_wide_max_m: float = 2.5
     offsets_wide_count: int = 41
     """The widened search when no configured offset is feasible."""
-    exploration_speed_mps: float = 12.0
+    exploration_speed_mps: float = 14.0
     """Top speed (m/s) while exploring an unseen track from its cones: a sanity cap. Below it,
     what sets the pace is being able to stop within the track seen so far
     (``exploration_late_cover_s`` and the supervisor's stop; :mod:`planner.exploration_speed`),
     the friction circle and the steering on the path; with the track seen 17-19 m ahead
     and the supervisor's stop at 8 m/s^2 the invariant alone allows about 13 m/s on a
-    straight, so on the generated layouts this cap binds. 15 m/s took FSSIM's community
-    layout 'thin' (autocross, seed 1) into two cones where its infield runs close beside the
-    lane; 12 m/s drives it clean and costs 0.01 of the explored ratio's median (autocross,
-    shared tracks + gen:1..20, seeds 1-3: 2.192 -> 2.204). Measured again with the 8 m/s^2
-    stop: at 14 m/s (and at 15 m/s with manoeuvres passing a cone closer than 0.35 m held to
-    12 or 9 m/s) 'thin' seed 1 hit a cone at 12-13 m/s: the manoeuvres chosen there passed it
-    at the hard clearance (0.2 m from the body), and the car follows each within 0.3 m."""
+    straight. At 14 m/s FSSIM's community layout 'thin' (autocross, seed 1) hit a cone at
+    12-13 m/s, passed by the chosen manoeuvres at the hard clearance, until that clearance
+    grew with the speed (``cone_clearance_per_mps``); before, 12 m/s had been kept for it
+    (at 15 m/s two cones where its infield runs close beside the lane)."""
     exploration_speed_lead_s: float = 0.75
     """While exploring, the limit of being able to stop within the track seen is asked this
     long (s) of driving ahead of where it holds (the controller's ``speed_preview_s``: it

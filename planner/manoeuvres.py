@@ -116,9 +116,12 @@ class ManoeuvreGenerator:
         cones_xy_m: FloatArray,
         last_offset_m: float | None,
         start: tuple[float, float] | None = None,
+        speed_margin: bool = False,
     ) -> tuple[list[Candidate], int]:
         """Candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
         none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame).
+        ``speed_margin``: the full margin grows with the speed (:meth:`full_margin_m`; the
+        planner asks it while exploring).
 
         ``start`` = (d, dd/ds) overrides the start state (offset (m) and slope) taken from the
         car. The search widens until a feasible candidate is found: the configured offsets over
@@ -130,7 +133,7 @@ class ManoeuvreGenerator:
         (``family: check``)."""
         tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
         cands: list[Candidate] = []
-        for family, offsets, horizon, cap, margin in self._families(speed_mps):
+        for family, offsets, horizon, cap, margin in self._families(speed_mps, speed_margin):
             cands = self._family(frame, s0_m, d0_m, yaw_rad, speed_mps, tree, last_offset_m,
                                  start, offsets, horizon, cap, margin)
             if not cands:
@@ -154,20 +157,35 @@ class ManoeuvreGenerator:
             return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
         return cands, -1
 
-    def _families(self, speed_mps: float) -> list[tuple[str, FloatArray, float, float, float]]:
+    def full_margin_m(self, speed_mps: float) -> float:
+        """The hard cone margin (m) of the manoeuvres with the full margin while exploring, the
+        car at ``speed_mps``: ``cone_clearance_m``, more by ``cone_clearance_per_mps`` per m/s
+        above ``cone_clearance_speed_mps``."""
+        c = self.config
+        over = max(abs(speed_mps) - c.cone_clearance_speed_mps, 0.0)
+        return c.cone_clearance_m + c.cone_clearance_per_mps * over
+
+    def _families(self, speed_mps: float, speed_margin: bool = False
+                  ) -> list[tuple[str, FloatArray, float, float, float]]:
         """(name, end offsets (m), horizon (m), speed cap (m/s), full cone margin (m)) in the
-        order they are tried."""
+        order they are tried; with ``speed_margin`` the full margin is
+        :meth:`full_margin_m` at the speed each family is driven at."""
         c = self.config
         horizon = self.horizon_m(speed_mps)
         wide = np.linspace(-c.offsets_wide_max_m, c.offsets_wide_max_m,
                            max(c.offsets_wide_count, 1))
         short = max(0.5 * c.horizon_min_m, 2.0 * c.path_step_m * 4)
-        full, near = c.cone_clearance_m, c.cone_clearance_near_m
+        # the full margin at the speed each family is driven at (the fallbacks' cap)
+        full = slow = c.cone_clearance_m
+        near = c.cone_clearance_near_m
+        if speed_margin:
+            full = self.full_margin_m(speed_mps)
+            slow = self.full_margin_m(min(abs(speed_mps), c.fallback_speed_mps))
         return [
             ("nominal", self.offsets(), horizon, math.inf, full),
             ("wide", wide, horizon, math.inf, full),
-            ("short", wide, c.horizon_min_m, c.fallback_speed_mps, full),
-            ("shortest", wide, short, c.fallback_speed_mps, full),
+            ("short", wide, c.horizon_min_m, c.fallback_speed_mps, slow),
+            ("shortest", wide, short, c.fallback_speed_mps, slow),
             ("crawl", wide, c.horizon_min_m, c.crawl_speed_mps, near),
             ("crawl short", wide, short, c.crawl_speed_mps, near),
         ]

@@ -511,7 +511,8 @@ class PathPlanner:
         speed = pose.speed_mps
         start = self._stitch(frame, s0, d0)
         cands, best = self.generator.generate(frame, s0, d0, pose.yaw_rad, speed, cones,
-                                              self._last_offset, start)
+                                              self._last_offset, start,
+                                              speed_margin=self.exploring)
         waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
         if not cands:
             return self._empty_plan(now_s, waypoints)

@@ -224,6 +224,37 @@ def test_a_corridor_with_only_a_cones_radius_to_spare_is_crawled() -> None:
     assert best >= 0 and cands[best].speed_cap_mps == math.inf
 
 
+def test_at_speed_a_lane_needs_more_room_or_is_taken_slower() -> None:
+    """Exploring, cones 0.28 m from the car's body on both sides all along a straight: at
+    6 m/s the full margin (0.2 m) fits and the configured offsets drive on uncapped; at 13 m/s
+    the margin is 0.35 m (``cone_clearance_per_mps`` 0.03 above 8 m/s), which does not fit,
+    and the short fallback, driven at its 4 m/s and so at the plain margin, takes the lane."""
+    from planner.baseframe import SplineBaseframe
+    from planner.config import PlannerConfig
+    from planner.manoeuvres import ManoeuvreGenerator
+
+    config = PlannerConfig()
+    generator = ManoeuvreGenerator(config, CarConfig())
+    assert generator.full_margin_m(6.0) == config.cone_clearance_m
+    assert generator.full_margin_m(13.0) == pytest.approx(0.35)
+    assert generator.full_margin_m(-13.0) == pytest.approx(0.35)
+    room = generator.circle_radius_m + 0.28
+    frame = SplineBaseframe(np.c_[np.linspace(0.0, 120.0, 121), np.zeros(121)], False)
+    x = np.arange(-2.0, 60.0, 0.5)
+    walls = np.r_[np.c_[x, np.full(len(x), room)], np.c_[x, np.full(len(x), -room)]]
+    cands, best = generator.generate(frame, 0.0, 0.0, 0.0, 6.0, walls, None, speed_margin=True)
+    assert best >= 0 and cands[best].speed_cap_mps == math.inf
+    fast = ManoeuvreGenerator(config, CarConfig())
+    cands, best = fast.generate(frame, 0.0, 0.0, 0.0, 13.0, walls, None, speed_margin=True)
+    assert best >= 0
+    assert cands[best].speed_cap_mps == config.fallback_speed_mps
+    assert fast.rejections["nominal: clearance"] == config.offsets_count
+    assert cands[best].clearance_m == pytest.approx(0.28, abs=0.01)
+    # on a mapped lap (no speed margin) the lane is taken at speed as before
+    cands, best = generator.generate(frame, 0.0, 0.0, 0.0, 13.0, walls, None)
+    assert best >= 0 and cands[best].speed_cap_mps == math.inf
+
+
 @pytest.mark.parametrize("closed", [True, False])
 def test_racing_line_gradient_is_the_sparse_jacobians_bit_for_bit(closed: bool) -> None:
     from planner.racing_line import _CurvatureGradient, _jacobian, _menger_xy
