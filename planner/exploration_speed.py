@@ -97,12 +97,20 @@ def speed_limit_along_mps(s_m: FloatArray, length_m: float, room_m: FloatArray,
     the controller reads up to that far ahead of the car, and its slope there, are the
     invariant's at the car: the car holds the speed it may drive, instead of braking all the
     time for an end of the track that moves on as cones come into view."""
+    return _limit_and_lead(s_m, length_m, room_m, speed_mps, top_speed_mps, car_s_m, lead_s,
+                           max_lead_m)[0]
+
+
+def _limit_and_lead(s_m: FloatArray, length_m: float, room_m: FloatArray,
+                    speed_mps: FloatArray, top_speed_mps: float, car_s_m: float,
+                    lead_s: float, max_lead_m: float) -> tuple[FloatArray, float]:
+    """:func:`speed_limit_along_mps` and the lead (m) it shifted the invariant by."""
     remaining = length_m - np.asarray(s_m, np.float64)
     at_car = float(seen_track_speed_mps(np.array([length_m - car_s_m]), room_m, speed_mps,
                                         top_speed_mps)[0])
     lead = exploring_lead_m(at_car, lead_s, max_lead_m)
     v = seen_track_speed_mps(remaining, room_m, speed_mps, top_speed_mps, lead)
-    return np.asarray(np.minimum(v, at_car), np.float64)
+    return np.asarray(np.minimum(v, at_car), np.float64), lead
 
 
 def exploring_lead_m(at_car_mps: float, lead_s: float, max_lead_m: float) -> float:
@@ -154,15 +162,12 @@ def exploring_speed_limit_mps(frame: SplineBaseframe, car_xy: tuple[float, float
     car_s = 0.0
     if car_xy is not None and all(math.isfinite(v) for v in car_xy):
         car_s = float(frame.project(*car_xy)[0])
-    limit = speed_limit_along_mps(frame.s_m, float(frame.s_m[-1]), room_m, speed_mps,
+    limit, lead = _limit_and_lead(frame.s_m, float(frame.s_m[-1]), room_m, speed_mps,
                                   config.exploration_speed_mps, car_s,
                                   config.exploration_speed_lead_s,
                                   config.exploration_speed_lead_max_m)
     if len(room_m) == 0:  # no stop rule handed in: the profile stands at the end itself
         return limit, 0.0
-    at_car = float(limit.max()) if len(limit) else 0.0
-    lead = exploring_lead_m(at_car, config.exploration_speed_lead_s,
-                            config.exploration_speed_lead_max_m)
     return limit, exploring_end_speed_mps(lead, brake_mps2)
 
 
