@@ -352,6 +352,11 @@ class SlamConfig:
     rear_slip_saturation: bool = True
     """The slip angle grows as atanh(a_y / car.max_lateral_accel_mps2) near the grip limit
     (tanh tyre law); False: linear in a_y."""
+    slip_from_accelerometer: bool = True
+    """The slip's lateral acceleration is the accelerometer's, moved to the rear axle, and the
+    grip left for it the friction circle's share after the longitudinal force
+    (:func:`mapper.motion.rear_slip_from_accel`); False: the steady-state ``vx w`` with all the
+    grip (``rear_slip_saturation`` then applies)."""
     lateral_slip_sigma_fraction: float = 0.5
     """The lateral constraint's sigma grows by this fraction of the modelled slip speed: the
     steady-state tyre model (``rear_slip_rad_per_mps2``) is rough while the slip builds up and
@@ -363,6 +368,10 @@ class SlamConfig:
     imu_bias_states: bool = True
     """Estimate the gyro z and accelerometer x, y biases as states (the car may start moving
     without a standstill to calibrate them)."""
+    standstill_gyro_calibration: bool = True
+    """With bias states: while the car stands at the start, the gyro's mean is its bias (the
+    UKF's static-calibration thresholds say when it moves); applied once as a zero-rate update
+    of the bias state, with the samples' own standard error."""
     initial_gyro_bias_sigma_radps: float = 0.005
     initial_accel_bias_sigma_mps2: float = 0.2
     gyro_bias_walk_radps_rths: float = 2.0e-5

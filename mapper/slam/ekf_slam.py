@@ -7,9 +7,12 @@
   (``car.imu_x_m``) to the rear axle. With ``SlamConfig.imu_bias_states`` (default) the gyro z
   and accelerometer x, y biases are states: the car may drive off without a standstill to
   calibrate them, and an uncorrected 0.002 rad/s gyro bias turns the map by 0.08 rad a lap.
+  When it does stand at the start, the gyro's mean over the wait is one zero-rate update of
+  the gyro bias state as it drives off (``standstill_gyro_calibration``).
 - Wheel odometry: the rear axle's forward speed (the rear wheels read ``vx (1 +
   wheel_slip_per_mps2 a_x)``: the tyres' longitudinal slip) and its lateral velocity, which is
-  only the tyres' slip in a corner (:func:`mapper.motion.rear_slip_velocity`; zero slip is the
+  only the tyres' slip in a corner, read from the accelerometer's lateral acceleration at the
+  axle within the friction circle (:func:`mapper.motion.rear_slip_from_accel`; zero slip is the
   plain non-holonomic constraint). The yaw rate is an input (gyro), not a state, so the
   steering angle is not needed. GPS: the world-frame position, Mahalanobis-gated.
 - One LiDAR sweep: cones stamped before the sweep's time are moved to it with the estimated
@@ -41,7 +44,8 @@ from common.messages import (
 )
 from mapper.chi2 import chi2_ppf
 from mapper.config import MapperConfig
-from mapper.motion import rear_slip_velocity
+from mapper.imu_calibration import StaticCalibration
+from mapper.motion import rear_slip_from_accel, rear_slip_velocity
 from mapper.slam.association import Associator
 from mapper.slam.ekf import SlamEkf
 from mapper.slam.landmarks import N_COLOURS, N_SIZES, LandmarkBook
@@ -73,6 +77,11 @@ class EkfSlam:
         self.t_s: float | None = None
         self.odometer_m = 0.0
         self._last_imu: ImuSample | None = None
+        ukf = config.ukf
+        self._standstill: StaticCalibration | None = (
+            StaticCalibration(ukf.static_gyro_threshold_radps, ukf.static_accel_threshold_mps2)
+            if c.standstill_gyro_calibration and c.imu_bias_states else None)
+        self._standstill_min_samples = ukf.static_min_samples
         self._input = (0.0, 0.0, 0.0, 0.0)
         """Last IMU input: yaw rate, specific force x, y, yaw acceleration (held between
         samples); see :meth:`_corrected_input`."""
@@ -169,6 +178,8 @@ class EkfSlam:
         if not all(math.isfinite(v) for v in values) or not math.isfinite(imu.timestamp_s):
             self.stats["imu_rejected_nonfinite"] += 1
             return
+        if self._standstill is not None and not self._standstill.still(imu):
+            self._end_standstill()
         prev = self._last_imu
         if self.t_s is None or prev is None:
             self._last_imu = imu
@@ -193,6 +204,28 @@ class EkfSlam:
         self._last_imu = imu
         self._propagate(dt)
         self.t_s = imu.timestamp_s
+
+    def _end_standstill(self) -> None:
+        """The car moves: the gyro's mean while it stood is its bias, known to the samples'
+        standard error (a zero-rate update on the gyro bias state, once).
+
+        The landmarks alone pin the bias only as well as they pin the yaw over the wait (0.12
+        mrad/s after 8 s on the simulated car), and a bias wrong by 0.1 mrad/s turns the
+        explored lap by 0.2 deg in 30 s; the gyro's own mean knows it to its white noise
+        (0.05 mrad/s after 8 s at 200 Hz)."""
+        still = self._standstill
+        assert still is not None
+        self._standstill = None
+        if still.count < self._standstill_min_samples:
+            self.stats["standstill_calibration_skipped"] += 1
+            return
+        self.ekf.flush()
+        mean_radps = float(still.mean()[0])
+        var = float(still.variance_of_mean()[0])
+        ok = self.ekf.update_vehicle(np.array([5]), np.ones((1, 1)),
+                                     np.array([mean_radps - float(self.ekf.xbuf[5])]),
+                                     np.array([[var]]))
+        self.stats["standstill_calibration"] += int(ok)
 
     def predict_to(self, timestamp_s: float) -> None:
         """Propagate to ``timestamp_s`` holding the last IMU input (no-op if not newer)."""
@@ -272,10 +305,20 @@ class EkfSlam:
         _, _, yaw, vx, vy = self.ekf.xbuf[:POSE_DIM]
         c, s = math.cos(yaw), math.sin(yaw)
         vxb, vyb = c * vx + s * vy, -s * vx + c * vy
-        w, ax, _ = self._corrected_input()
-        a_max = (self.car.max_lateral_accel_mps2 if self.cfg.rear_slip_saturation
-                 else math.inf)
-        vy_slip, d_vx, d_w = rear_slip_velocity(vxb, w, self.cfg.rear_slip_rad_per_mps2, a_max)
+        w, ax, ay = self._corrected_input()
+        biased = self.ekf.vdim > POSE_DIM
+        lever = self.cfg.imu_lever_arm
+        from_accel = self.cfg.slip_from_accelerometer
+        if from_accel:
+            vy_slip, d_vx, d_ay, d_ax = rear_slip_from_accel(
+                vxb, ay, ax, self.cfg.rear_slip_rad_per_mps2, self.car.max_lateral_accel_mps2)
+            d_w = 0.0
+        else:
+            a_max = (self.car.max_lateral_accel_mps2 if self.cfg.rear_slip_saturation
+                     else math.inf)
+            vy_slip, d_vx, d_w = rear_slip_velocity(vxb, w, self.cfg.rear_slip_rad_per_mps2,
+                                                    a_max)
+            d_ay = d_ax = 0.0
         # Longitudinal slip: the driven / braked rear tyres turn faster / slower than the axle
         # moves, by a fraction proportional to the longitudinal force (a_x of the axle).
         k = self.cfg.wheel_slip_per_mps2
@@ -283,21 +326,24 @@ class EkfSlam:
         # d vxb / d (yaw, vx, vy) and d vyb / d (yaw, vx, vy)
         dvxb = np.array([vyb, c, s])
         dvyb = np.array([-vxb, -s, c])
-        biased = self.ekf.vdim > POSE_DIM
-        h = np.zeros((2, 5 if biased else 3))
+        h = np.zeros((2, 6 if biased else 3))
         h[0, :3] = scale * dvxb
         h[1, :3] = dvyb - d_vx * dvxb
         if biased:
-            h[1, 3] = d_w                    # w = gyro - bias
-            h[0, 4] = -k * vxb               # a_x = accel - bias
-            if self.cfg.imu_lever_arm:       # a_x has w^2 r from the lever arm
-                h[0, 3] = -2.0 * k * vxb * w * self.car.imu_x_m
+            # The inputs less their biases: w = gyro - b_gz, a_x = accel - b_ax (+ w^2 r from
+            # the lever arm), a_y = accel - b_ay; the measurement is (wheels, vyb - vy_slip).
+            d_ax_d_bgz = -2.0 * w * self.car.imu_x_m if lever else 0.0
+            h[0, 3] = k * vxb * d_ax_d_bgz
+            h[0, 4] = -k * vxb
+            h[1, 3] = d_w - d_ax * d_ax_d_bgz
+            h[1, 4] = d_ax
+            h[1, 5] = d_ay
         pred = np.array([scale * vxb, vyb - vy_slip])
         lat_sigma = (self.cfg.lateral_velocity_sigma_mps
                      + self.cfg.lateral_slip_sigma_fraction * abs(vy_slip))
         r = np.diag([self.cfg.wheel_speed_sigma_mps ** 2
                      + (self.cfg.wheel_speed_sigma_fraction * vxb) ** 2, lat_sigma ** 2])
-        cols = np.array([2, 3, 4, 5, 6]) if biased else np.array([2, 3, 4])
+        cols = np.array([2, 3, 4, 5, 6, 7]) if biased else np.array([2, 3, 4])
         self.ekf.update_vehicle(cols, h, np.array([v, 0.0]) - pred, r)
         self.stats["odometry_updates"] += 1
 
