@@ -26,6 +26,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import Counter
 from collections.abc import Sequence
@@ -52,6 +53,8 @@ from mapper.slam.landmarks import N_COLOURS, N_SIZES, LandmarkBook
 from mapper.slam.loop_closure import LoopClosure
 from mapper.slam.models import POSE_DIM, FloatArray, lidar_noise, motion_model
 from mapper.slam.preliminary import PreliminaryList
+
+log = logging.getLogger(__name__)
 
 
 class EkfSlam:
@@ -218,6 +221,8 @@ class EkfSlam:
         self._standstill = None
         if still.count < self._standstill_min_samples:
             self.stats["standstill_calibration_skipped"] += 1
+            log.info("SLAM gyro calibration skipped: the car moved after %d standing samples",
+                     still.count)
             return
         self.ekf.flush()
         mean_radps = float(still.mean()[0])
@@ -226,6 +231,8 @@ class EkfSlam:
                                      np.array([mean_radps - float(self.ekf.xbuf[5])]),
                                      np.array([[var]]))
         self.stats["standstill_calibration"] += int(ok)
+        log.info("SLAM gyro bias from %d standing samples: %.3f +- %.3f mrad/s", still.count,
+                 1e3 * mean_radps, 1e3 * math.sqrt(var))
 
     def predict_to(self, timestamp_s: float) -> None:
         """Propagate to ``timestamp_s`` holding the last IMU input (no-op if not newer)."""
