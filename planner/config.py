@@ -180,6 +180,10 @@ class PlannerConfig:
     (issue 45), 15 m let FSG's trackdrive race its last 15 m of the explored lap on the drifted
     map (0.27 m off the start's cones) and hit the start line's cones (1 lap, seeds 8-13:
     1 of 6 clean at a 15 m/s exploring cap; 6 of 6 at 5 m)."""
+    loop_off_driven_max_m: float = 2.0
+    """While exploring, a loop found in the cones is the track only when it strays no further
+    than this (m) from the way the car drove: the car explored through the gates' middles
+    (:meth:`planner.explored_lap.ExploredLap.loop_off_driven_m`)."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     lap_min_m: float = 15.0

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from common.messages import ConeColour, MapState
-from common.polyline import nearest_on_polyline, polyline_length
+from common.polyline import nearest_on_polyline, polyline_length, resample
 from planner.config import PlannerConfig
 
 logger = logging.getLogger(__name__)
@@ -48,6 +48,8 @@ class ExploredLap:
         self._trace: collections.deque[tuple[float, float]] = collections.deque(
             maxlen=int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2)
         """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
+        self._whole_trace: list[tuple[float, float]] = []
+        """The whole way driven while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
         self._point_ahead_m: float | None = None
         """How far ahead of the car (m) the start line's point was, when the car passes it
         abreast (the big cones of one side only)."""
@@ -104,6 +106,7 @@ class ExploredLap:
         if not self._trace or math.hypot(x_m - self._trace[-1][0],
                                          y_m - self._trace[-1][1]) >= TRACE_STEP_M:
             self._trace.append((x_m, y_m))
+            self._whole_trace.append((x_m, y_m))
 
     def start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
         """The start line while exploring: a point on it, its unit direction (the car crosses
@@ -144,6 +147,28 @@ class ExploredLap:
         keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
         return trace[keep] if np.count_nonzero(keep) >= 2 else None
 
+    def loop_off_driven_m(self, points_xy_m: FloatArray) -> float:
+        """How far (m) a loop found in the cones (``points_xy_m`` (K, 2), ordered from the car)
+        strays from the way the car drove, at most: its points beyond the undriven stretch
+        ahead of the car (``loop_unseen_max_m``) to the nearest point of the driven trace;
+        0 with fewer than two trace points.
+
+        The car explored through the gates' middles, so the track's loop runs within a metre
+        or so of it; a loop that strays further went through gates of another stretch (cones
+        of unknown colour, after a camera outage, paired across the inside of a bend: FSG, a
+        3 s outage at 12 m/s, the loop ran 3 m outside the inner boundary of a bend and its
+        racing line passed 0.1 m from a cone)."""
+        trace = np.asarray(self._whole_trace, np.float64)
+        pts = np.asarray(points_xy_m, np.float64).reshape(-1, 2)
+        if len(trace) < 2 or len(pts) < 2:
+            return 0.0
+        pts = resample(pts, TRACE_STEP_M, True)  # the chords between gates too
+        along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+        driven = pts[along > self.config.loop_unseen_max_m]
+        if len(driven) == 0:
+            return 0.0
+        return float(nearest_on_polyline(driven, trace, False)[0].max())
+
     def loop_search_pointless(self, x_m: float, y_m: float, min_loop_m: float,
                               mission: str) -> bool:
         """Whether :meth:`loop_refusal` would refuse any loop the cones could make now, the car
@@ -179,6 +204,10 @@ class ExploredLap:
             return "loop_misses_start"
         if self.explored_m < polyline_length(points_xy_m, True) - c.loop_unseen_max_m:
             return "loop_ahead_unseen"
+        off_m = self.loop_off_driven_m(points_xy_m)
+        logger.debug("a loop in the cones: %.2f m off the way driven at most", off_m)
+        if off_m > c.loop_off_driven_max_m:
+            return "loop_off_driven"
         if mission == "autocross":
             return "loop_in_autocross"
         return ""
