@@ -180,10 +180,15 @@ class PlannerConfig:
     (issue 45), 15 m let FSG's trackdrive race its last 15 m of the explored lap on the drifted
     map (0.27 m off the start's cones) and hit the start line's cones (1 lap, seeds 8-13:
     1 of 6 clean at a 15 m/s exploring cap; 6 of 6 at 5 m)."""
-    loop_off_driven_max_m: float = 2.0
+    loop_off_driven_max_m: float = 2.5
     """While exploring, a loop found in the cones is the track only when it strays no further
     than this (m) from the way the car drove: the car explored through the gates' middles
-    (:meth:`planner.explored_lap.ExploredLap.loop_off_driven_m`)."""
+    (:meth:`planner.explored_lap.ExploredLap.loop_off_driven_m`). Measured: the track's loop
+    0.5-1.1 m on FSG and FSSIM FSI, 2.1-2.2 m on EUFS Hairpin (the car swings wide of a hairpin
+    at the steering lock); loops that were not the track (gates paired across a bend's inside,
+    whose racing line then met a cone: a safe stop for 'no feasible path' in the next lap)
+    2.7 m (FSI, seed 1) and 5.8 m (FSG after a camera outage). At 2 m Hairpin's track was
+    refused and its mapped laps driven at exploring pace (best lap 1.43x instead of 1.12x)."""
     start_line_search_m: float = 15.0
     """Big orange cones this near the start (m) mark the start line of an explored track."""
     lap_min_m: float = 15.0
