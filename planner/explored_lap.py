@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from common.messages import ConeColour, MapState
 from common.polyline import nearest_on_polyline, polyline_length, resample
@@ -167,7 +168,17 @@ class ExploredLap:
         driven = pts[along > self.config.loop_unseen_max_m]
         if len(driven) == 0:
             return 0.0
-        return float(nearest_on_polyline(driven, trace, False)[0].max())
+        # The nearest trace point, then the trace's two segments beside it: the trace grows
+        # with every lap explored, and every segment against every point would too.
+        nearest = cKDTree(trace).query(driven)[1]
+        best = np.full(len(driven), np.inf)
+        for first in (nearest - 1, nearest):
+            i = np.clip(first, 0, len(trace) - 2)
+            a, ab = trace[i], trace[i + 1] - trace[i]
+            t = np.clip(((driven - a) * ab).sum(axis=1) / np.maximum((ab * ab).sum(axis=1),
+                                                                    1e-12), 0.0, 1.0)
+            best = np.minimum(best, np.hypot(*(a + t[:, None] * ab - driven).T))
+        return float(best.max())
 
     def loop_search_pointless(self, x_m: float, y_m: float, min_loop_m: float,
                               mission: str) -> bool:
@@ -197,7 +208,8 @@ class ExploredLap:
         loop through cones seen across a narrow waist cuts a bend not mapped yet); or the
         mission is an autocross (one lap: nothing to race on the closed map, and building its
         racing line takes the planner a second that drive's plans have not got; the lap ends
-        at the line)."""
+        at the line); it strays more than ``loop_off_driven_max_m`` from the way the car drove
+        (:meth:`loop_off_driven_m`: gates paired across the inside of a bend)."""
         c = self.config
         to_start_m = nearest_on_polyline(np.asarray([self._origin_xy]), points_xy_m, True)[0][0]
         if to_start_m > c.loop_through_start_m:
