@@ -6,7 +6,6 @@ loop found in the cones may be the track.
 
 from __future__ import annotations
 
-import collections
 import logging
 import math
 
@@ -46,11 +45,8 @@ class ExploredLap:
         self._last_crossing_m = 0.0
         """``explored_m`` at the last crossing of the start line."""
         self._last_xy: tuple[float, float] | None = None
-        self._trace: collections.deque[tuple[float, float]] = collections.deque(
-            maxlen=int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2)
+        self._trace: list[tuple[float, float]] = []
         """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
-        self._whole_trace: list[tuple[float, float]] = []
-        """The whole way driven while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
         self._point_ahead_m: float | None = None
         """How far ahead of the car (m) the start line's point was, when the car passes it
         abreast (the big cones of one side only)."""
@@ -107,7 +103,6 @@ class ExploredLap:
         if not self._trace or math.hypot(x_m - self._trace[-1][0],
                                          y_m - self._trace[-1][1]) >= TRACE_STEP_M:
             self._trace.append((x_m, y_m))
-            self._whole_trace.append((x_m, y_m))
 
     def start_line(self, map_state: MapState) -> tuple[FloatArray, FloatArray | None, float]:
         """The start line while exploring: a point on it, its unit direction (the car crosses
@@ -142,7 +137,7 @@ class ExploredLap:
         None when it has driven less."""
         if len(self._trace) < 2:
             return None
-        trace = np.asarray(self._trace, np.float64)
+        trace = np.asarray(self._trace[-(int(DRIVEN_BEHIND_M / TRACE_STEP_M) + 2):], np.float64)
         back = np.concatenate([np.cumsum(np.hypot(*np.diff(trace[::-1], axis=0).T))[::-1],
                                [0.0]])
         keep = (back >= DRIVEN_NEAR_M) & (back <= DRIVEN_BEHIND_M)
@@ -159,7 +154,7 @@ class ExploredLap:
         of unknown colour, after a camera outage, paired across the inside of a bend: FSG, a
         3 s outage at 12 m/s, the loop ran 3 m outside the inner boundary of a bend and its
         racing line passed 0.1 m from a cone)."""
-        trace = np.asarray(self._whole_trace, np.float64)
+        trace = np.asarray(self._trace, np.float64)
         pts = np.asarray(points_xy_m, np.float64).reshape(-1, 2)
         if len(trace) < 2 or len(pts) < 2:
             return 0.0
@@ -205,10 +200,10 @@ class ExploredLap:
         """Why a loop found in the cones (``points_xy_m`` (K, 2), closed) is not the track
         ('' when it is): it misses the start (one lobe of a figure-like layout closed through
         another stretch's cones); the car has not driven all but ``loop_unseen_max_m`` of it (a
-        loop through cones seen across a narrow waist cuts a bend not mapped yet); or the
+        loop through cones seen across a narrow waist cuts a bend not mapped yet); the
         mission is an autocross (one lap: nothing to race on the closed map, and building its
         racing line takes the planner a second that drive's plans have not got; the lap ends
-        at the line); it strays more than ``loop_off_driven_max_m`` from the way the car drove
+        at the line); or it strays more than ``loop_off_driven_max_m`` from the way the car drove
         (:meth:`loop_off_driven_m`: gates paired across the inside of a bend)."""
         c = self.config
         to_start_m = nearest_on_polyline(np.asarray([self._origin_xy]), points_xy_m, True)[0][0]
@@ -216,11 +211,11 @@ class ExploredLap:
             return "loop_misses_start"
         if self.explored_m < polyline_length(points_xy_m, True) - c.loop_unseen_max_m:
             return "loop_ahead_unseen"
+        if mission == "autocross":
+            return "loop_in_autocross"
         off_m = self.loop_off_driven_m(points_xy_m)
         logger.debug("a loop in the cones: %.2f m off the way driven at most", off_m)
         if off_m > c.loop_off_driven_max_m:
             return "loop_off_driven"
-        if mission == "autocross":
-            return "loop_in_autocross"
         return ""
 
