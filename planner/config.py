@@ -208,12 +208,6 @@ class PlannerConfig:
     lateral_safety_factor: float = 0.6
     """Fraction of the car's lateral limit the profile plans with: the tyres' response flattens
     towards the limit, and the steering needs room left to correct the car."""
-    exploration_lateral_safety_factor: float = 0.75
-    """``lateral_safety_factor`` while exploring (issue 45): the path through the gates' middles
-    keeps half the track's width to either side, where the racing line keeps
-    ``racing_margin_m`` to its cones. Autocross, seed 1: 0.6 -> 0.75 took the explored lap on
-    EUFS peanut from 1.51 to 1.43x the friction limit, on FSG from 1.36 to 1.28x; the
-    generated layouts, bound by the range in view, moved by 1 %; 0.85 gained 1-2 % more."""
     steer_rate_fraction: float = 0.5
     """Fraction of the car's steering rate the profile lets the path's curvature changes use
     (the rest corrects the car)."""

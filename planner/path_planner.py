@@ -77,10 +77,6 @@ class PathPlanner:
             else c.lateral_safety_factor
         self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, top_speed,
                                            lateral_factor=lateral)
-        self.exploring_limits = SpeedLimits.from_car(
-            car, c.friction_safety_factor, top_speed,
-            lateral_factor=c.exploration_lateral_safety_factor)
-        """The point mass's limits on a track being explored (its own lateral factor)."""
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""
         self.track_model: TrackModel | None = None
@@ -406,9 +402,8 @@ class PathPlanner:
                                                                self.generator, c))
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
-        return forward_backward_speed_mps(kappa, ds,
-                                          self.exploring_limits if exploring else self.limits,
-                                          frame.closed, v_end_mps=v_end, v_limit_mps=extra)
+        return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
+                                          v_end_mps=v_end, v_limit_mps=extra)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:
         """The baseframe speed profile (m/s) at arc lengths ``s_m``."""
@@ -569,10 +564,7 @@ class PathPlanner:
 
     def _targets(self, cand: Candidate, now_s: float, stop: bool) -> TargetStates:
         """Discretise a candidate into timed target states with friction-limited speeds."""
-        exploring = (self.frame is not None and not self.frame.closed
-                     and self._origin_xy is not None)
-        return timed_targets(cand, self.speed_at,
-                             self.exploring_limits if exploring else self.limits, now_s, stop,
+        return timed_targets(cand, self.speed_at, self.limits, now_s, stop,
                              self.config.min_plan_speed_mps)
 
     def _empty_plan(self, now_s: float, waypoints: FloatArray | None = None) -> Plan:
