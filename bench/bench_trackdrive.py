@@ -4,13 +4,16 @@ Runs ``sim`` (no rendering, no recording) on every (track, seed) and prints one 
 completed, cones hit, off-track events, pose RMSE, best lap time and its ratio to the
 friction-limited minimum lap time along the centreline
 (:func:`planner.speed_profile.min_lap_time_s`), and the explored lap's (the first, driven from
-the cones as they are mapped; autocross's one lap) over the same minimum. Tracks:
+the cones as they are mapped; autocross's one lap) over the same minimum, the seen track
+ahead of the car while it explored (its median, ``view_m``) and the ceiling that much in view
+sets (``ceiling``: :mod:`bench.bench_view_ceiling`'s ratio at that view). Tracks:
 ``--tracks N`` (gen:1..N), or a list of
 names, files and folders (every ``.csv``/``.yaml`` in a folder), ``--hard`` adds the hard
 layouts (:mod:`simulator.hard_tracks`), ``--fsg`` FSG from the shared data. A run is clean when
 it completes its laps with no cone hit and no off-track event. Last lines: the clean count, the
-median and worst lap ratio, and the worst track by name (a run that did not complete a lap
-counts as ratio ``inf``). ``--jobs`` runs that many simulations side by side.
+median and worst explored ratio and the median ceiling; the median and worst lap ratio, and the
+worst track by name (a run that did not complete a lap counts as ratio ``inf``). ``--jobs``
+runs that many simulations side by side.
 """
 
 from __future__ import annotations
@@ -122,22 +125,26 @@ def _one(config: AppConfig, track: str, laps: int, seed: int | None,
     return summary
 
 
-def _name(track: str) -> str:
+def track_name(track: str) -> str:
+    """The short name of a track in a table: FSG, a file's stem, or the name as given."""
     return "FSG" if track == str(FSG) else Path(track).stem if "/" in track else track
 
 
 def _row(s: dict[str, Any], laps: int) -> tuple[str, bool]:
     """The table line of one run and whether it was clean."""
-    name = f"{_name(s['track'])}:{s['seed'] if s['seed'] is not None else '-'}"
+    name = f"{track_name(s['track'])}:{s['seed'] if s['seed'] is not None else '-'}"
     if "error" in s:
         return f"{name:>26} {'error':>5}  {s['error']}", False
     clean = s["laps_completed"] >= laps and not s["cones_hit"] and not s["off_track"]
     best = s.get("best_lap_time_s")
     rmse = s.get("pose_rmse_m")
+    view = s.get("mission_result") or {}
     return (f"{name:>26} {s['laps_completed']:>5d} {s['cones_hit']:>5d} {s['off_track']:>4d} "
             f"{rmse if rmse is not None else math.nan:>7.3f} "
             f"{best if best else math.nan:>7.2f} {s['min_lap_time_s']:>7.2f} "
-            f"{s['lap_ratio']:>6.3f} {s['explored_ratio']:>8.3f} {s['wall_s']:>6.1f} "
+            f"{s['lap_ratio']:>6.3f} {s['explored_ratio']:>8.3f} "
+            f"{view.get('explored_view_m') or math.nan:>6.1f} "
+            f"{view.get('view_ceiling_ratio') or math.nan:>7.3f} {s['wall_s']:>6.1f} "
             f"{'clean' if clean else 'FAIL':>5}  "
             f"{s['stop_reason']}"), clean
 
@@ -155,7 +162,8 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     seeds: list[int | None] = list(args.seeds) if args.seeds else [None]
     runs = [(track, seed) for track in tracks for seed in seeds]
     print(f"{'track:seed':>26} {'laps':>5} {'cones':>5} {'off':>4} {'rmse_m':>7} {'best_s':>7} "
-          f"{'min_s':>7} {'ratio':>6} {'explored':>8} {'wall_s':>6} {'':>5}  stop_reason",
+          f"{'min_s':>7} {'ratio':>6} {'explored':>8} {'view_m':>6} {'ceiling':>7} "
+          f"{'wall_s':>6} {'':>5}  stop_reason",
           flush=True)
     results: list[dict[str, Any]] = []
     clean_runs = 0
@@ -179,9 +187,13 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     explored = [float(s.get("explored_ratio", math.inf)) for s in results]
     finite_explored = [r for r in explored if math.isfinite(r)]
     median_explored = statistics.median(finite_explored) if finite_explored else math.inf
+    ceilings = [float(s["mission_result"]["view_ceiling_ratio"]) for s in results
+                if (s.get("mission_result") or {}).get("view_ceiling_ratio") is not None]
+    median_ceiling = statistics.median(ceilings) if ceilings else math.nan
     print(f"runs={len(results)} clean={clean_runs} cones_hit={cones} "
-          f"median_explored_ratio={median_explored:.3f} worst_explored_ratio={max(explored):.3f}")
+          f"median_explored_ratio={median_explored:.3f} worst_explored_ratio={max(explored):.3f} "
+          f"median_view_ceiling_ratio={median_ceiling:.3f}")
     print(f"median_lap_ratio={statistics.median(finite) if finite else math.inf:.3f} "
-          f"worst_lap_ratio={max(ratios):.3f} worst_track={_name(worst['track'])}"
+          f"worst_lap_ratio={max(ratios):.3f} worst_track={track_name(worst['track'])}"
           f":{worst['seed'] if worst['seed'] is not None else '-'}")
     return 0

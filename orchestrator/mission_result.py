@@ -4,13 +4,15 @@ limit.
 Every mission reports ``mission_time_s`` (the RES go to the car standing finished).
 Trackdrive and autocross add the lap driven on the unseen track (``explored_lap_s``), the
 friction-limited minimum lap of the true centreline (``min_lap_s``) and their ratio
-(``explored_ratio``). Acceleration adds its time over the 75 m and skidpad its laps, each
-side's timed lap and their mean (:class:`simulator.mission_timing.MissionTimer`, ground truth),
-each against the friction-limited minimum of the same point mass trackdrive's best lap is
-compared with
-(:mod:`planner.speed_profile`: 1.5 g lateral, 8 m/s^2 drive, 12 m/s^2 brake, 25 m/s, from the
-car's configuration) on the true layout: from standstill over the same 75 m, and a flying lap of
-the circle through the middle of each skidpad lane.
+(``explored_ratio``); with the seen track ahead of the car while it explored (its median,
+``explored_view_m``), the speed stopping within that allows (``view_speed_mps``) and the
+ratio of a lap held to it to the same minimum (``view_ceiling_ratio``: what that much in view
+allows at best, ``bench view_ceiling``). Acceleration adds its time over the 75 m and skidpad
+its laps, each side's timed lap and their mean (:class:`simulator.mission_timing.MissionTimer`,
+ground truth), each against the friction-limited minimum of the same point mass trackdrive's
+best lap is compared with (:mod:`planner.speed_profile`: 1.5 g lateral, 8 m/s^2 drive,
+12 m/s^2 brake, 25 m/s, from the car's configuration) on the true layout: from standstill over
+the same 75 m, and a flying lap of the circle through the middle of each skidpad lane.
 """
 
 from __future__ import annotations
@@ -39,11 +41,13 @@ def mission_timer(mission: str, track: Track, car: CarConfig) -> MissionTimer | 
 
 
 def mission_result(mission: str, track: Track, car: CarConfig, timer: MissionTimer | None,
-                   mission_time_s: float | None,
-                   explored_lap_s: float | None = None) -> dict[str, Any]:
+                   mission_time_s: float | None, explored_lap_s: float | None = None,
+                   explored_view: tuple[float, float] | None = None) -> dict[str, Any]:
     """The mission's result (see the module docstring); ``mission_time_s``: go to finished
     standstill (s; None when the run did not finish); ``explored_lap_s``: the lap driven on
-    the unseen track (trackdrive's first, autocross's only; None when there was none)."""
+    the unseen track (trackdrive's first, autocross's only; None when there was none);
+    ``explored_view``: (the median seen track ahead of the car while exploring (m), the speed
+    (m/s) stopping within it allows; :meth:`planner.path_planner.PathPlanner.explored_view`)."""
     result: dict[str, Any] = {"mission_time_s": _round(mission_time_s)}
     if timer is None:
         if (mission in ("trackdrive", "autocross") and explored_lap_s is not None
@@ -52,6 +56,12 @@ def mission_result(mission: str, track: Track, car: CarConfig, timer: MissionTim
             result["explored_lap_s"] = _round(explored_lap_s)
             result["min_lap_s"] = _round(t_min)
             result["explored_ratio"] = _ratio(explored_lap_s, t_min)
+            if explored_view is not None:
+                view_m, speed_mps = explored_view
+                ceiling = min_lap_time_s(track.centreline_xy_m, car, max_speed_mps=speed_mps)
+                result["explored_view_m"] = _round(view_m, 2)
+                result["view_speed_mps"] = _round(speed_mps, 2)
+                result["view_ceiling_ratio"] = _ratio(ceiling, t_min)
         return result
     result.update(timer.result())
     front_m = car.length_m - car.rear_overhang_m

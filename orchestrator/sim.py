@@ -529,9 +529,10 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
     }
     mission_time = (result.sim_time_s - runner.person.handover_time_s
                     if result.finished else None)
+    view = getattr(main.planner, "explored_view", lambda: None)()
     summary["mission_result"] = mission_result(config.mission.mission, track, config.car,
                                                runner.timer, mission_time,
-                                               runner.person.exploration_lap_time_s)
+                                               runner.person.exploration_lap_time_s, view)
     if runner.estop is not None:
         summary["estop"] = runner.estop
     return summary

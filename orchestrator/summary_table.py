@@ -45,6 +45,13 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
                                 f"{_fmt(timing.get('wall_time_s'))}"),
         ("realtime factor", timing.get("realtime_factor")),
     ]
+    result = summary.get("mission_result") or {}
+    if result.get("explored_ratio") is not None:
+        rows.insert(6, ("explored / friction limit", result["explored_ratio"]))
+    if result.get("view_ceiling_ratio") is not None:
+        rows.insert(7, ("in view while exploring", f"{result['explored_view_m']:.1f} m: at most "
+                                                   f"{result['view_speed_mps']:.1f} m/s, "
+                                                   f"{result['view_ceiling_ratio']:.2f}x at best"))
     if "estop" in summary:
         estop = summary["estop"]
         rows.append(("e-stop distance (m)", f"{_fmt(estop.get('stop_distance_m'))} "

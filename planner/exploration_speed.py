@@ -79,6 +79,13 @@ def seen_track_speed_mps(remaining_m: ArrayLike, room_m: FloatArray, speed_mps: 
     return np.asarray(np.minimum(v, top_speed_mps), np.float64)
 
 
+def view_speed_mps(view_m: float, room_m: FloatArray, speed_mps: FloatArray) -> float:
+    """The speed (m/s) the invariant allows a car with ``view_m`` (m) of seen track ahead
+    (:func:`seen_track_speed_mps` with no lead, no top speed): the pace ``view_m`` of track in
+    view allows on a straight."""
+    return float(seen_track_speed_mps(np.array([view_m]), room_m, speed_mps)[0])
+
+
 def preview_lead_m(speed_mps: ArrayLike, lead_s: float, max_lead_m: float) -> FloatArray:
     """How far ahead of the car (m) the controller reads the speed it is asked for at
     ``speed_mps``: ``lead_s`` of driving, at most ``max_lead_m``."""
@@ -152,13 +159,14 @@ def speed_curvature(kappa_1pm: ArrayLike, step_m: float, window_m: float) -> Flo
 
 def exploring_speed_limit_mps(frame: SplineBaseframe, car_xy: tuple[float, float] | None,
                               room_m: FloatArray, speed_mps: FloatArray, config: PlannerConfig,
-                              brake_mps2: float) -> tuple[FloatArray, float]:
+                              brake_mps2: float) -> tuple[FloatArray, float, float]:
     """:func:`speed_limit_along_mps` along the exploring ``frame`` with the car at ``car_xy``
     (m; None: at the frame's start) and the planner's configuration: top speed
     ``exploration_speed_mps``, lead ``exploration_speed_lead_s`` (at most
     ``exploration_speed_lead_max_m``). ``room_m``, ``speed_mps``: the late cover's table
     (:func:`planner.speed_profile.late_cover_table`). Also the speed (m/s) the profile ends
-    at (:func:`exploring_end_speed_mps` at the profile's braking ``brake_mps2``)."""
+    at (:func:`exploring_end_speed_mps` at the profile's braking ``brake_mps2``), and the
+    seen track ahead of the car (m): the frame's length beyond the car."""
     car_s = 0.0
     if car_xy is not None and all(math.isfinite(v) for v in car_xy):
         car_s = float(frame.project(*car_xy)[0])
@@ -166,9 +174,10 @@ def exploring_speed_limit_mps(frame: SplineBaseframe, car_xy: tuple[float, float
                                   config.exploration_speed_mps, car_s,
                                   config.exploration_speed_lead_s,
                                   config.exploration_speed_lead_max_m)
+    view_m = float(frame.s_m[-1]) - car_s
     if len(room_m) == 0:  # no stop rule handed in: the profile stands at the end itself
-        return limit, 0.0
-    return limit, exploring_end_speed_mps(lead, brake_mps2)
+        return limit, 0.0, view_m
+    return limit, exploring_end_speed_mps(lead, brake_mps2), view_m
 
 
 def exploring_curvature(kappa_1pm: FloatArray, step_m: float, config: PlannerConfig

@@ -26,6 +26,7 @@ from planner.exploration_speed import (
     exploring_curvature,
     exploring_speed_limit_mps,
     narrow_passage_limit_mps,
+    view_speed_mps,
 )
 from planner.explored_lap import ExploredLap
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
@@ -96,6 +97,8 @@ class PathPlanner:
         """The car's progress while it explores (distance, start-line crossings, trace)."""
         self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
+        self.views_ahead_m: list[float] = []
+        """The seen track ahead of the car (m) at each exploring plan (:meth:`explored_view`)."""
 
     # ------------------------------------------------------------------ phases
     def observe(self, map_state: MapState) -> None:
@@ -162,6 +165,15 @@ class PathPlanner:
         """Planning from the cones mapped so far on an open track (the first lap, explored)."""
         return self.autonomous and self.frame_source == "cones" and (
             self.frame is None or not self.frame.closed)
+
+    def explored_view(self) -> tuple[float, float] | None:
+        """(the median seen track ahead of the car (m) over the exploring plans, the speed
+        (m/s) the invariant allows with that much in view on a straight); None before any
+        exploring plan or with no stop rule handed in."""
+        if not self.views_ahead_m or len(self._cover_room_m) == 0:
+            return None
+        view_m = float(np.median(self.views_ahead_m))
+        return view_m, view_speed_mps(view_m, self._cover_room_m, self._cover_speed_mps)
 
     # ------------------------------------------------------------------ frame building
     def _build_frame(
@@ -394,9 +406,11 @@ class PathPlanner:
                 c.two_level_preview_m))
         v_end = None if frame.closed else 0.0
         if exploring:  # the invariant: able to stop within the track seen (exploration_speed)
-            limit, v_end = exploring_speed_limit_mps(frame, car_xy, self._cover_room_m,
-                                                     self._cover_speed_mps, c,
-                                                     self.limits.brake_mps2)
+            limit, v_end, view_m = exploring_speed_limit_mps(
+                frame, car_xy, self._cover_room_m, self._cover_speed_mps, c,
+                self.limits.brake_mps2)
+            if car_xy is not None:
+                self.views_ahead_m.append(view_m)
             extra = np.minimum(extra, limit)
             extra = np.minimum(extra, narrow_passage_limit_mps(frame, cones_xy_m,
                                                                self.generator, c))

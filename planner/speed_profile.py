@@ -222,18 +222,19 @@ def lap_time_s(speed_mps: ArrayLike, ds_m: ArrayLike, closed: bool = True) -> fl
     return float(np.sum(ds / mean))
 
 
-def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig) -> float:
+def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig,
+                   max_speed_mps: float = math.inf) -> float:
     """Friction-limited minimum lap time (s) along a closed centreline (N, 2) (m).
 
     A point mass with the car's lateral, drive and brake limits and top speed (no safety factor)
     on the centreline's baseframe (a periodic spline, resampled every 1 m and lightly smoothed as
-    the planner does), on a flying lap.
+    the planner does), on a flying lap; ``max_speed_mps`` (m/s) caps the top speed further.
     """
     from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
 
     frame = SplineBaseframe(centreline_xy, closed=True, resample_m=1.0, smoothing_m=1.0,
                             step_m=0.5)
-    limits = SpeedLimits.from_car(car)
+    limits = SpeedLimits.from_car(car, max_speed_mps=max_speed_mps)
     ds = np.full(len(frame.s_m), frame.step_m)
     v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=True)
     return lap_time_s(v, ds, closed=True)

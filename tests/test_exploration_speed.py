@@ -142,6 +142,7 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
                           stop_distance_m=lambda v: late_stop_distance_m(v, safety))
     planner.start_autonomous(map_state(views[0], colours))
     asked = []
+    rooms = []
     for view in views:
         state = map_state(view, colours)
         if not planner.explore(state) or not planner.exploring:
@@ -150,6 +151,8 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
         assert frame is not None
         s_car = float(frame.project(view.x_m, view.y_m)[0])
         room = frame.length_m - s_car
+        rooms.append(room)
+        assert planner.views_ahead_m[-1] == pytest.approx(room, abs=1e-6)
         lead = planner.config.exploration_speed_lead_max_m
         s = np.linspace(s_car, min(s_car + lead, frame.length_m), 9)
         v = planner.speed_at(s)
@@ -158,6 +161,12 @@ def test_exploring_a_lap_the_car_can_always_stop_within_the_track_it_has_seen(
         asked.append(float(v[0]))
     assert len(asked) > 30
     assert max(asked) > 9.0  # past the constant cap it had (8 m/s)
+    # the run's view: the median seen track ahead, and the pace it allows on a straight
+    explored = planner.explored_view()
+    assert explored is not None
+    view_m, speed_mps = explored
+    assert min(rooms) <= view_m <= max(rooms)
+    assert speed_mps * late_s + late_stop_distance_m(speed_mps, safety) <= view_m + 1e-6
 
 
 def _lane(width_m: float, pinch_m: float | None = None, length_m: float = 40.0

@@ -30,3 +30,32 @@ def test_no_explored_lap_no_ratio() -> None:
     for lap in (None, math.nan):
         result = mission_result("autocross", track, CarConfig(), None, None, explored_lap_s=lap)
         assert result == {"mission_time_s": None}
+
+
+def test_the_view_ceiling_is_the_lap_held_to_the_pace_in_view() -> None:
+    track = load_track(str(shared_data("tracks", "eufs", "small_track.csv")))
+    car = CarConfig()
+    t_min = min_lap_time_s(track.centreline_xy_m, car)
+    result = mission_result("autocross", track, car, None, 40.0, explored_lap_s=2.0 * t_min,
+                            explored_view=(17.0, 12.9))
+    assert result["explored_view_m"] == pytest.approx(17.0)
+    assert result["view_speed_mps"] == pytest.approx(12.9)
+    held = min_lap_time_s(track.centreline_xy_m, car, max_speed_mps=12.9)
+    assert result["view_ceiling_ratio"] == pytest.approx(held / t_min, abs=1e-3)
+    assert 1.0 < result["view_ceiling_ratio"] < result["explored_ratio"]
+    # in view more than the car's top speed needs: the friction limit itself
+    free = mission_result("autocross", track, car, None, 40.0, explored_lap_s=2.0 * t_min,
+                          explored_view=(200.0, 2.0 * car.top_speed_mps))
+    assert free["view_ceiling_ratio"] == pytest.approx(1.0)
+
+
+def test_the_summary_table_shows_the_explored_lap_against_its_ceiling() -> None:
+    from orchestrator.summary_table import summary_rows
+
+    rows = dict(summary_rows({"mission_result": {
+        "explored_ratio": 1.68, "explored_view_m": 16.71, "view_speed_mps": 12.74,
+        "view_ceiling_ratio": 1.501}}))
+    assert rows["explored / friction limit"] == "1.680"
+    assert rows["in view while exploring"] == "16.7 m: at most 12.7 m/s, 1.50x at best"
+    plain = dict(summary_rows({"mission_result": {"mission_time_s": 3.0}}))
+    assert "explored / friction limit" not in plain and "in view while exploring" not in plain
