@@ -21,8 +21,6 @@ from __future__ import annotations
 import argparse
 import statistics
 
-import numpy as np
-
 from common.cli_types import positive_float
 from orchestrator.config import AppConfig
 

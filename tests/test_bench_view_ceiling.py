@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.bench_view_ceiling import view_list, speed_in_view_mps
+from bench.bench_view_ceiling import speed_in_view_mps, view_list
 from controller.safety import late_stop_distance_m
 from orchestrator.config import AppConfig
 from planner.speed_profile import min_lap_time_s
