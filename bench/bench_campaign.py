@@ -25,7 +25,7 @@ from pathlib import Path
 from common.cli_types import positive_int, seed_list
 from orchestrator.config import AppConfig
 
-HELP = "campaign vs the same runs one after another: speed-up, same outputs"
+HELP = "campaign vs the same runs in turn: speed-up, same outputs"
 TARGET_EFFICIENCY = 0.9
 """The campaign's speed-up over ``machine_parallel`` measured in the same run (issue 42)."""
 

@@ -6,7 +6,7 @@ friction-limited minimum lap time along the centreline
 (:func:`planner.speed_profile.min_lap_time_s`), and the explored lap's (the first, driven from
 the cones as they are mapped; autocross's one lap) over the same minimum, the seen track
 ahead of the car while it explored (its median, ``view_m``) and the ceiling that much in view
-sets (``ceiling``: :mod:`bench.bench_view_ceiling`'s ratio at that view). Tracks:
+sets (``ceiling``: :mod:`bench.bench_ceiling`'s ratio at that view). Tracks:
 ``--tracks N`` (gen:1..N), or a list of
 names, files and folders (every ``.csv``/``.yaml`` in a folder), ``--hard`` adds the hard
 layouts (:mod:`simulator.hard_tracks`), ``--fsg`` FSG from the shared data. A run is clean when

@@ -7,7 +7,7 @@ friction-limited minimum lap of the true centreline (``min_lap_s``) and their ra
 (``explored_ratio``); with the seen track ahead of the car while it explored (its median,
 ``explored_view_m``), the speed stopping within that allows (``view_speed_mps``) and the
 ratio of a lap held to it to the same minimum (``view_ceiling_ratio``: what that much in view
-allows at best, ``bench view_ceiling``). Acceleration adds its time over the 75 m and skidpad
+allows at best, ``bench ceiling``). Acceleration adds its time over the 75 m and skidpad
 its laps, each side's timed lap and their mean (:class:`simulator.mission_timing.MissionTimer`,
 ground truth), each against the friction-limited minimum of the same point mass trackdrive's
 best lap is compared with (:mod:`planner.speed_profile`: 1.5 g lateral, 8 m/s^2 drive,

@@ -24,7 +24,7 @@ import statistics
 from common.cli_types import positive_float
 from orchestrator.config import AppConfig
 
-HELP = "the explored lap's ceiling: a point mass held to stopping within the track in view"
+HELP = "explored lap's ceiling: stopping within the track in view"
 
 def view_list(text: str) -> list[float]:
     """Comma-separated lengths (m) of track in view, each > 0."""
@@ -35,7 +35,7 @@ def view_list(text: str) -> list[float]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``bench view_ceiling``."""
+    """Options of ``bench ceiling``."""
     from bench.bench_trackdrive import track_list
 
     parser.add_argument("--tracks", type=track_list, default=track_list("20"),

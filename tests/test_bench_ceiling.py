@@ -1,4 +1,4 @@
-"""``bench view_ceiling``: the explored lap's ceiling when only the track in view holds the car
+"""``bench ceiling``: the explored lap's ceiling when only the track in view holds the car
 back (issue 45)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.bench_view_ceiling import speed_in_view_mps, view_list
+from bench.bench_ceiling import speed_in_view_mps, view_list
 from controller.safety import late_stop_distance_m
 from orchestrator.config import AppConfig
 from planner.speed_profile import min_lap_time_s
@@ -61,7 +61,7 @@ def test_view_list_refuses_what_is_not_a_length() -> None:
 
 
 def test_the_command_prints_a_row_per_track_and_the_ceiling() -> None:
-    out = subprocess.run([sys.executable, "main.py", "bench", "view_ceiling", "--tracks",
+    out = subprocess.run([sys.executable, "main.py", "bench", "ceiling", "--tracks",
                           "gen:1,gen:2", "--view-m", "17,60"], cwd=ROOT, capture_output=True,
                          text=True, timeout=300, check=True).stdout
     rows = [line.split() for line in out.splitlines() if line.strip().startswith("gen:")]
