@@ -235,3 +235,14 @@ def test_a_narrow_passage_is_driven_at_its_speed_and_a_lane_as_wide_as_the_rules
     off = PlannerConfig(exploration_narrow_room_m=0.0)
     assert np.all(np.isinf(narrow_passage_limit_mps(frame, _lane(3.5, 2.5), gen, off)))
     assert np.all(np.isinf(narrow_passage_limit_mps(frame, None, gen, config)))
+
+
+def test_the_late_cover_spans_every_plan_the_supervisor_lets_the_car_follow_at_speed() -> None:
+    """A plan up to the supervisor's ``plan_timeout_s`` old is followed at speed; an older one
+    is late, and the supervisor then holds the car to a speed whose manoeuvre covers a stop.
+    The invariant's cover must reach that far, or a plan just short of late would not."""
+    from orchestrator.config import AppConfig
+
+    config = AppConfig()
+    assert (config.planner.exploration_late_cover_s
+            >= config.controller.safety.plan_timeout_s > 0.0)

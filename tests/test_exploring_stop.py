@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 LANE_END_M = 60.0
 HALF_WIDTH_M = 1.75
@@ -47,3 +48,42 @@ def test_exploring_a_lane_whose_cones_end_the_car_stands_before_its_last_gate(
     assert x_m[-1] > LANE_END_M - 5.0
     # and the lane was driven at pace, not at a crawl: the invariant, not a constant, held it
     assert speed_mps.max() > 10.0
+
+
+def test_a_planner_that_stalls_as_the_lane_end_comes_into_view_is_ridden_out(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """No plan for 0.3 s at 12-13 m/s just as the lane's last gate comes into view (the end of
+    the track seen stops moving on there, and the car is at the invariant's limit): the
+    controller follows the last plan, slower as it ages, and the late cover
+    (``planner.exploration_late_cover_s``) leaves that plan room enough that the supervisor
+    never finds it short of a stop. The car still stands before the last gate, the run ended
+    for want of a manoeuvre, not for a plan too old. (At a 0.2 s cover it ended "plan too old:
+    0.220 s, its 12.0 m ahead do not cover a stop (12.2 m)".)"""
+    import orchestrator.layers as layers
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+
+    stall_from_m, stall_s = 40.0, 0.3
+    stalled_at: list[float] = []
+    step = layers.DeliberativeLayer.step
+
+    def stalling_step(self, now_s, map_state, go, driving):  # type: ignore[no-untyped-def]
+        if not stalled_at and map_state.pose.x_m >= stall_from_m:
+            stalled_at.append(now_s)
+        if stalled_at and now_s < stalled_at[0] + stall_s:
+            return None
+        return step(self, now_s, map_state, go, driving)
+
+    monkeypatch.setattr(layers.DeliberativeLayer, "step", stalling_step)
+    track = _lane_csv(tmp_path / "lane.csv")
+    out = tmp_path / "run"
+    summary = run_sim(AppConfig(), SimOptions(track=str(track), seed=1, mission="autocross",
+                                              render=False, record=False, out_dir=out))
+    log = np.load(out / "run_log.npz")
+    x_m, speed_mps = log["truth"][:, 0], log["truth"][:, 3]
+    assert stalled_at, "the car never reached the stall"
+    at_stall = int(np.searchsorted(log["t_s"], stalled_at[0]))
+    assert speed_mps[at_stall] > 10.0  # at pace when the plans stopped
+    assert summary["cones_hit"] == 0 and summary["off_track"] == 0
+    assert summary["stop_reason"] == "no manoeuvre"
+    assert x_m.max() < LANE_END_M and x_m[-1] > LANE_END_M - 5.0
