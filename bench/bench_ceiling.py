@@ -9,8 +9,8 @@ with the car's full limits (no safety factor, as :func:`planner.speed_profile.mi
 and that cap on a flying lap of each track's centreline, and prints its ratio to the
 friction-limited minimum: the best explored-lap ratio ``bench trackdrive --mission autocross``
 could show with that much in view, whatever the planner does. It is optimistic (no standing
-start, the full lateral limit, the view never shorter in a bend), so a measured explored lap
-above it by a few tenths is planning, and the rest is seeing.
+start, the full lateral limit, the view never shorter in a bend): how far a measured explored
+lap is above it is the planner's (and the standing start's), how far it is above 1 the view's.
 
 No simulation runs: a second a track. Last line: the median and worst ceiling ratio for the
 first ``--view-m``.
@@ -25,6 +25,7 @@ from common.cli_types import positive_float
 from orchestrator.config import AppConfig
 
 HELP = "explored lap's ceiling: stopping within the track in view"
+
 
 def view_list(text: str) -> list[float]:
     """Comma-separated lengths (m) of track in view, each > 0."""
