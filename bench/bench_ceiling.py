@@ -37,12 +37,9 @@ def view_list(text: str) -> list[float]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench ceiling``."""
-    from bench.bench_trackdrive import track_list
+    from bench.bench_trackdrive import add_track_arguments
 
-    parser.add_argument("--tracks", type=track_list, default=track_list("20"),
-                        help="N (gen:1..N, default 20) or a comma list of names, files, "
-                             "folders, gen:A..B ranges")
-    parser.add_argument("--fsg", action="store_true", help="also FSG (shared data)")
+    add_track_arguments(parser, 20)
     parser.add_argument("--view-m", type=view_list, default=view_list("14,17,20"),
                         help="lengths (m) of track in view ahead of the car, comma-separated "
                              "(default 14,17,20: the LiDAR's landmarks alone, the camera's "

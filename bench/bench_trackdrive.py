@@ -72,14 +72,19 @@ def track_list(text: str) -> list[str]:
     return tracks
 
 
+def add_track_arguments(parser: argparse.ArgumentParser, default_count: int) -> None:
+    """``--tracks`` (:func:`track_list`, default gen:1..``default_count``) and ``--fsg``."""
+    parser.add_argument("--tracks", type=track_list, default=track_list(str(default_count)),
+                        help=f"N (gen:1..N, default {default_count}) or a comma list of names, "
+                             "files, folders, gen:A..B ranges")
+    parser.add_argument("--fsg", action="store_true", help="also FSG (shared data)")
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``bench trackdrive``."""
-    parser.add_argument("--tracks", type=track_list, default=track_list("6"),
-                        help="N (gen:1..N, default 6) or a comma list of names, files, folders, "
-                             "gen:A..B ranges")
+    add_track_arguments(parser, 6)
     parser.add_argument("--hard", action="store_true",
                         help="also the hard layouts (hard:hairpins, ...)")
-    parser.add_argument("--fsg", action="store_true", help="also run FSG (shared data)")
     parser.add_argument("--laps", type=positive_int, default=10, help="autonomous laps per run")
     parser.add_argument("--seeds", type=seed_list, default=None,
                         help="simulation seeds, e.g. 1-3 or 1,5 (default: the config's)")

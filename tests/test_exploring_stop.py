@@ -26,8 +26,9 @@ def _lane_csv(path: Path) -> Path:
     return path
 
 
-def test_exploring_a_lane_whose_cones_end_the_car_stands_before_its_last_gate(
-        tmp_path: Path) -> None:
+def _drive_lane(tmp_path: Path) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
+    """An autocross of the lane (seed 1): the summary, and the run log's time (s), rear-axle x
+    (m) and speed (m/s) from the truth."""
     from orchestrator.config import AppConfig
     from orchestrator.sim import SimOptions, run_sim
 
@@ -36,7 +37,12 @@ def test_exploring_a_lane_whose_cones_end_the_car_stands_before_its_last_gate(
     summary = run_sim(AppConfig(), SimOptions(track=str(track), seed=1, mission="autocross",
                                               render=False, record=False, out_dir=out))
     log = np.load(out / "run_log.npz")
-    x_m, speed_mps = log["truth"][:, 0], log["truth"][:, 3]
+    return summary, log["t_s"], log["truth"][:, 0], log["truth"][:, 3]
+
+
+def test_exploring_a_lane_whose_cones_end_the_car_stands_before_its_last_gate(
+        tmp_path: Path) -> None:
+    summary, _, x_m, speed_mps = _drive_lane(tmp_path)
     assert summary["cones_hit"] == 0 and summary["off_track"] == 0
     # no lap to finish: it stopped because the track it had seen ended, standing
     assert not summary["finished"]
@@ -60,8 +66,6 @@ def test_a_planner_that_stalls_as_the_lane_end_comes_into_view_is_ridden_out(
     for want of a manoeuvre, not for a plan too old. (At a 0.2 s cover it ended "plan too old:
     0.220 s, its 12.0 m ahead do not cover a stop (12.2 m)".)"""
     import orchestrator.layers as layers
-    from orchestrator.config import AppConfig
-    from orchestrator.sim import SimOptions, run_sim
 
     stall_from_m, stall_s = 40.0, 0.3
     stalled_at: list[float] = []
@@ -75,14 +79,9 @@ def test_a_planner_that_stalls_as_the_lane_end_comes_into_view_is_ridden_out(
         return step(self, now_s, map_state, go, driving)
 
     monkeypatch.setattr(layers.DeliberativeLayer, "step", stalling_step)
-    track = _lane_csv(tmp_path / "lane.csv")
-    out = tmp_path / "run"
-    summary = run_sim(AppConfig(), SimOptions(track=str(track), seed=1, mission="autocross",
-                                              render=False, record=False, out_dir=out))
-    log = np.load(out / "run_log.npz")
-    x_m, speed_mps = log["truth"][:, 0], log["truth"][:, 3]
+    summary, t_s, x_m, speed_mps = _drive_lane(tmp_path)
     assert stalled_at, "the car never reached the stall"
-    at_stall = int(np.searchsorted(log["t_s"], stalled_at[0]))
+    at_stall = int(np.searchsorted(t_s, stalled_at[0]))
     assert speed_mps[at_stall] > 10.0  # at pace when the plans stopped
     assert summary["cones_hit"] == 0 and summary["off_track"] == 0
     assert summary["stop_reason"] == "no manoeuvre"
