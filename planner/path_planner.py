@@ -29,6 +29,7 @@ from planner.exploration_speed import (
     view_speed_mps,
 )
 from planner.explored_lap import ExploredLap
+from planner.exploring_line import steerable_frame
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.race_job import BackgroundRace, RaceLine, build_race_line
@@ -192,7 +193,11 @@ class PathPlanner:
                 raced = self._race_frame(frame, map_state)
             if raced is not None:
                 frame = raced
-            elif c.centre_on_cones and len(cones) >= 8 and not exploring:
+            elif exploring:  # where the gates' path bends beyond the lock (exploring_line)
+                from_s = frame.project(map_state.pose.x_m, map_state.pose.y_m)[0]
+                frame = steerable_frame(frame, cones.xy_m, cones.colour, self.car, c,
+                                        from_s + c.exploration_start_m) or frame
+            elif c.centre_on_cones and len(cones) >= 8:
                 # (an explored path runs through the gates' middles already; centring it on
                 # every cone within reach also pulls it toward another stretch of the track)
                 frame = centre_on_cones(frame, cones.xy_m, cones.colour,

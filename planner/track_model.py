@@ -171,11 +171,13 @@ def self_intersects(xy_m: ArrayLike, closed: bool, step_m: float = 2.0) -> bool:
 
 
 def _room(
-    centre: FloatArray, normals: FloatArray, left: FloatArray, right: FloatArray
+    centre: FloatArray, normals: FloatArray, left: FloatArray, right: FloatArray,
+    reach_m: float = OFFSET_RANGE_M,
 ) -> tuple[FloatArray, NDArray[np.bool_], FloatArray, FloatArray]:
-    """At offsets (K,) along each normal: whether the point is between the boundaries (N, K)
-    and its distance to the nearest point of the left and right boundary (N, K) each."""
-    offsets = np.arange(-OFFSET_RANGE_M, OFFSET_RANGE_M + 1e-9, OFFSET_STEP_M)
+    """At offsets (K,) along each normal, up to ``reach_m`` either side: whether the point is
+    between the boundaries (N, K) and its distance to the nearest point of the left and right
+    boundary (N, K) each."""
+    offsets = np.arange(-reach_m, reach_m + 1e-9, OFFSET_STEP_M)
     pts = centre[:, None, :] + offsets[None, :, None] * normals[:, None, :]
     flat = pts.reshape(-1, 2)
     shape = pts.shape[:2]
@@ -268,6 +270,34 @@ def _boundaries(
             dense[k] = frame.frenet_to_xy(s, d + sign * nominal_width_m)
     assert dense[0] is not None and dense[1] is not None
     return dense[0], dense[1]
+
+
+def side_boundaries(frame: SplineBaseframe, cones_xy_m: FloatArray, colours: NDArray[np.int64],
+                    max_lateral_m: float, nominal_width_m: float
+                    ) -> tuple[FloatArray, FloatArray]:
+    """The left and right boundaries along the open or closed ``frame`` (dense polylines (P, 2)
+    and (Q, 2)) from the cones (N, 2) with their :class:`ConeColour` (N,) within
+    ``max_lateral_m`` of it, as :func:`track_from_cones` builds them. Raises
+    :class:`TrackError` when neither side has three cones."""
+    left, right, _ = _split_sides(frame, cones_xy_m, colours, max_lateral_m)
+    return _boundaries(frame, left, right, frame.closed, nominal_width_m)
+
+
+def most_room_offsets(centre_xy_m: FloatArray, normals: FloatArray, left_xy_m: FloatArray,
+                      right_xy_m: FloatArray, left_margin_m: ArrayLike, right_margin_m: ArrayLike,
+                      reach_m: float) -> FloatArray:
+    """Per sample of ``centre_xy_m`` (N, 2), the offset (N,) (m, along ``normals``, within
+    ``reach_m``) between the boundary polylines ``left_xy_m`` and ``right_xy_m`` at which the
+    lesser of the room to the left less ``left_margin_m`` (N,) and the room to the right less
+    ``right_margin_m`` (N,) is largest (0 where no offset lies between them)."""
+    offsets, inside, to_left, to_right = _room(centre_xy_m, normals, left_xy_m, right_xy_m,
+                                               reach_m)
+    lm = np.asarray(left_margin_m, np.float64).reshape(-1, 1)
+    rm = np.asarray(right_margin_m, np.float64).reshape(-1, 1)
+    slack = np.where(inside, np.minimum(to_left - lm, to_right - rm), -np.inf)
+    best = offsets[np.argmax(slack, axis=1)]
+    best[~inside.any(axis=1)] = 0.0
+    return np.asarray(best, np.float64)
 
 
 def track_from_cones(
