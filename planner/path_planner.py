@@ -194,9 +194,9 @@ class PathPlanner:
             if raced is not None:
                 frame = raced
             elif exploring:  # where the gates' path bends beyond the lock (exploring_line)
-                from_s = frame.project(map_state.pose.x_m, map_state.pose.y_m)[0]
-                frame = steerable_frame(frame, cones.xy_m, cones.colour, self.car, c,
-                                        from_s + c.exploration_start_m) or frame
+                car_xy = (map_state.pose.x_m, map_state.pose.y_m)
+                frame = steerable_frame(frame, cones.xy_m, cones.colour, car_xy, self.car, c,
+                                        self.generator.kappa_max_1pm) or frame
             elif c.centre_on_cones and len(cones) >= 8:
                 # (an explored path runs through the gates' middles already; centring it on
                 # every cone within reach also pulls it toward another stretch of the track)
