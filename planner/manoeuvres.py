@@ -22,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from common.car import CarConfig
 from planner.baseframe import SplineBaseframe
+from planner.boundary_walls import leaves_through
 from planner.config import PlannerConfig
 
 FloatArray = NDArray[np.float64]
@@ -47,6 +48,8 @@ class Candidate:
     max_curvature_1pm: float = 0.0
     speed_cap_mps: float = math.inf
     """A fallback manoeuvre (short horizon, sharp) is driven no faster than this (m/s)."""
+    leaves_lane: bool = False
+    """It leaves the lane between two of its cones (:mod:`planner.boundary_walls`)."""
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -117,6 +120,7 @@ class ManoeuvreGenerator:
         last_offset_m: float | None,
         start: tuple[float, float] | None = None,
         speed_margin: bool = False,
+        walls: FloatArray | None = None,
     ) -> tuple[list[Candidate], int]:
         """Candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
         none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame).
@@ -130,12 +134,13 @@ class ManoeuvreGenerator:
         radius as the margin throughout (at walking pace the car follows its path to a few
         centimetres: a rules-minimum hairpin leaves no more room than that to a car placed on
         its centreline). Each family's rejections are counted in :attr:`rejections`
-        (``family: check``)."""
+        (``family: check``). ``walls`` (W, 2, 2): the lane's boundaries a candidate may not
+        leave through (:mod:`planner.boundary_walls`; refused as ``boundary``)."""
         tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
         cands: list[Candidate] = []
         for family, offsets, horizon, cap, margin in self._families(speed_mps, speed_margin):
             cands = self._family(frame, s0_m, d0_m, yaw_rad, speed_mps, tree, last_offset_m,
-                                 start, offsets, horizon, cap, margin)
+                                 start, offsets, horizon, cap, margin, walls)
             if not cands:
                 return [], -1
             feasible = [i for i, cand in enumerate(cands) if cand.feasible]
@@ -156,6 +161,13 @@ class ManoeuvreGenerator:
         if clear:
             return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
         return cands, -1
+
+    @staticmethod
+    def roomiest(cands: list[Candidate]) -> int:
+        """The index of the candidate with the most clearance among those that stay in the
+        lane (among all when none does): the path a stop follows when none is feasible."""
+        inside = [i for i, cand in enumerate(cands) if not cand.leaves_lane]
+        return max(inside or range(len(cands)), key=lambda i: cands[i].clearance_m)
 
     def full_margin_m(self, speed_mps: float) -> float:
         """The hard cone margin (m) of the manoeuvres with the full margin while exploring, the
@@ -204,6 +216,7 @@ class ManoeuvreGenerator:
         horizon: float,
         speed_cap_mps: float,
         margin_m: float,
+        walls: FloatArray | None = None,
     ) -> list[Candidate]:
         c = self.config
         if start is not None:
@@ -236,8 +249,9 @@ class ManoeuvreGenerator:
         s = s0_m + u
         xy_all = frame.frenet_to_xy(s, d_all)
         heading_all, kappa_all = _path_geometry(xy_all)
+        out = None if walls is None or len(walls) == 0 else leaves_through(xy_all, walls)
         return self._grade(offs, s, d_all, xy_all, heading_all, kappa_all, in_h, tree,
-                           last_offset_m, speed_mps, margin_m, speed_cap_mps)
+                           last_offset_m, speed_mps, margin_m, speed_cap_mps, out)
 
     def _grade(
         self,
@@ -253,10 +267,12 @@ class ManoeuvreGenerator:
         speed_mps: float = 0.0,
         margin_m: float | None = None,
         speed_cap_mps: float = math.inf,
+        leaves: NDArray[np.bool_] | None = None,
     ) -> list[Candidate]:
         """The checks and cost of candidates to ``offsets`` (C,) over the same ``s`` (K,): d,
         heading, curvature (C, K), xy (C, K, 2); ``margin_m`` the full cone margin (None: the
-        configured ``cone_clearance_m``)."""
+        configured ``cone_clearance_m``); ``leaves`` (C,): which leave the lane through a
+        wall (refused, never taken even as the least bent)."""
         c = self.config
         count, k_len = d.shape
         k_abs = np.abs(kappa[:, 1:-1]) if k_len > 2 else np.abs(kappa)
@@ -303,11 +319,15 @@ class ManoeuvreGenerator:
             if bent_all[j]:
                 reason = f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
             collision_free = not hit_all[j]
+            out = leaves is not None and bool(leaves[j])
             if not collision_free:
                 i = int(worst[j])
                 reason = f"clearance {gap_all[j, i]:.2f} m to a cone at {u[i]:.1f} m"  # type: ignore[index]
+            elif out:
+                collision_free = False
+                reason = "boundary (leaves the lane between two of its cones)"
             cands.append(Candidate(float(offs[j]), s, d[j], xy[j], heading[j], kappa[j],
                                    float(clear_all[j]), collision_free and not bent_all[j],
                                    float(cost_all[j]), reason, collision_free, kmax,
-                                   speed_cap_mps))
+                                   speed_cap_mps, out))
         return cands

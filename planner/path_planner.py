@@ -20,6 +20,7 @@ from common.car import CarConfig
 from common.errors import TrackError
 from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
+from planner.boundary_walls import boundary_walls
 from planner.config import PlannerConfig
 from planner.exploration_path import exploration_path
 from planner.exploration_speed import (
@@ -528,10 +529,11 @@ class PathPlanner:
             near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)
             cones = cones[near < self.config.cone_search_radius_m]
         speed = pose.speed_mps
-        start = self._stitch(frame, s0, d0)
+        walls = boundary_walls(frame, map_state.cones.xy_m, map_state.cones.colour,
+                               (pose.x_m, pose.y_m)) if self.exploring else None
         cands, best = self.generator.generate(frame, s0, d0, pose.yaw_rad, speed, cones,
-                                              self._last_offset, start,
-                                              speed_margin=self.exploring)
+                                              self._last_offset, self._stitch(frame, s0, d0),
+                                              speed_margin=self.exploring, walls=walls)
         waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
         if not cands:
             return self._empty_plan(now_s, waypoints)
@@ -543,7 +545,7 @@ class PathPlanner:
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
             self._last_chosen = None
-            fallback = max(range(len(cands)), key=lambda i: cands[i].clearance_m)
+            fallback = self.generator.roomiest(cands)
             logger.warning("no feasible manoeuvre at s=%.1f m: stopping (the roomiest candidate: "
                            "%s; rejected so far: %s)", s0, cands[fallback].reason,
                            dict(self.generator.rejections))
