@@ -64,8 +64,8 @@ def steerable_frame(frame: SplineBaseframe, cones_xy_m: FloatArray, colours: NDA
     """The frame along the line with the most room for the car's body (module docstring)
     through the stretch of track of the open ``frame``, when ``frame`` bends tighter than
     ``limit_1pm`` (1/m; the manoeuvres' limit) beyond ``exploration_start_m`` ahead of the car
-    at ``car_xy_m`` (m), and the line's sharpest bend is gentler than that; else None (keep
-    ``frame``).
+    at ``car_xy_m`` (m), and the line's sharpest bend is gentler than ``frame``'s there; else
+    None (keep ``frame``).
 
     ``cones_xy_m`` (N, 2) and ``colours`` (N,) (:class:`common.messages.ConeColour`): the cones
     seen (world frame); a cone of unknown colour bounds the side it lies on."""
