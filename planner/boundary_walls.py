@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from common.conventions import wrap_angles
 from common.messages import ConeColour
 from planner.baseframe import SplineBaseframe
 
@@ -59,8 +60,7 @@ def boundary_walls(frame: SplineBaseframe, cones_xy_m: FloatArray, colours: NDAr
         step = b - a
         length = np.hypot(step[:, 0], step[:, 1])
         _, _, heading, _ = frame.sample(0.5 * (ss[:-1] + ss[1:]))
-        along = np.abs(np.remainder(np.arctan2(step[:, 1], step[:, 0]) - heading + np.pi,
-                                    2.0 * np.pi) - np.pi)
+        along = np.abs(wrap_angles(np.arctan2(step[:, 1], step[:, 0]) - heading))
         keep = (length <= MAX_GAP_M) & (length > 1e-6) & (along <= MAX_ANGLE_RAD)
         # the lane on the right: a left wall runs with the path, a right wall against it
         seg = np.stack([a[keep], b[keep]], axis=1) if sign > 0 else np.stack(

@@ -105,3 +105,18 @@ def hard_track(name: str) -> Track:
     half, width_m, start_s_m = _LAYOUTS[name]
     centre = centreline_from_half(half)
     return track_from_centreline(f"hard:{name}", centre, width_m, _index_at(centre, start_s_m))
+
+
+def first_arc(track: Track, radius_m: float = HAIRPIN_RADIUS_M
+              ) -> tuple[int, FloatArray, FloatArray]:
+    """Where ``track``'s first arc of ``radius_m`` begins: the index of its first centreline
+    sample bending at least half as much, the centreline's headings (M,) (rad, unwrapped) and
+    that arc's centre (2,) (m)."""
+    centre = track.centreline_xy_m
+    heading = np.unwrap(np.arctan2(np.gradient(centre[:, 1]), np.gradient(centre[:, 0])))
+    kappa = np.gradient(heading) / np.hypot(*np.gradient(centre, axis=0).T)
+    first = int(np.argmax(np.abs(kappa) > 0.5 / radius_m))
+    inside = first + int(round(3.0 / STEP_M))  # well on the arc: its normal meets the centre
+    arc_centre = centre[inside] + radius_m * np.sign(kappa[inside]) * np.array(
+        [-math.sin(heading[inside]), math.cos(heading[inside])])
+    return first, np.asarray(heading, np.float64), np.asarray(arc_centre, np.float64)

@@ -15,7 +15,7 @@ from planner.exploration_path import exploration_path
 from planner.exploring_line import bends_beyond, steerable_frame
 from planner.manoeuvres import ManoeuvreGenerator
 from planner.track_model import most_room_offsets
-from simulator.hard_tracks import HAIRPIN_RADIUS_M, hard_track
+from simulator.hard_tracks import HAIRPIN_RADIUS_M, first_arc, hard_track
 
 CONFIG = PlannerConfig()
 CAR = CarConfig()
@@ -60,15 +60,9 @@ def hairpin() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     its cones (N, 2), their colours (N,), the car's poses (x, y, yaw) (P, 3) on the centreline
     every 0.5 m from 6 m before the arc to 3 m into it, and the bend's centre (2,)."""
     track = hard_track("hairpins")
-    centre = track.centreline_xy_m
-    heading = np.unwrap(np.arctan2(np.gradient(centre[:, 1]), np.gradient(centre[:, 0])))
-    kappa = np.gradient(heading) / np.hypot(*np.gradient(centre, axis=0).T)
-    first = int(np.argmax(np.abs(kappa) > 0.5 / HAIRPIN_RADIUS_M))
-    inside = first + 6  # on the arc: its normal points at the bend's centre
-    bend_centre = centre[inside] + HAIRPIN_RADIUS_M * np.array(
-        [-math.sin(heading[inside]), math.cos(heading[inside])])
+    first, heading, bend_centre = first_arc(track)
     at = np.arange(first - 12, first + 7)  # samples are 0.5 m apart
-    poses = np.column_stack([centre[at], heading[at]])
+    poses = np.column_stack([track.centreline_xy_m[at], heading[at]])
     return (np.asarray(track.cones_xy_m), np.asarray(track.colours), poses, bend_centre)
 
 

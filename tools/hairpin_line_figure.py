@@ -24,7 +24,7 @@ from planner.config import PlannerConfig  # noqa: E402
 from planner.exploration_path import exploration_path  # noqa: E402
 from planner.exploring_line import steerable_frame  # noqa: E402
 from planner.manoeuvres import ManoeuvreGenerator  # noqa: E402
-from simulator.hard_tracks import HAIRPIN_RADIUS_M, hard_track  # noqa: E402
+from simulator.hard_tracks import first_arc, hard_track  # noqa: E402
 
 logger = logging.getLogger(__name__)
 
@@ -47,11 +47,8 @@ def draw(out: Path) -> None:
     config, car = PlannerConfig(), CarConfig()
     limit = ManoeuvreGenerator(config, car).kappa_max_1pm
     track = hard_track("hairpins")
-    centre = track.centreline_xy_m
-    heading = np.unwrap(np.arctan2(np.gradient(centre[:, 1]), np.gradient(centre[:, 0])))
-    kappa = np.gradient(heading) / np.hypot(*np.gradient(centre, axis=0).T)
-    first = int(np.argmax(np.abs(kappa) > 0.5 / HAIRPIN_RADIUS_M))
-    x, y = centre[first - 6]  # 3 m before the arc
+    first, heading, _ = first_arc(track)
+    x, y = track.centreline_xy_m[first - 6]  # 3 m before the arc
     seen = np.hypot(track.cones_xy_m[:, 0] - x, track.cones_xy_m[:, 1] - y) < SEEN_M
     cones, colours = track.cones_xy_m[seen], track.colours[seen]
     pts = exploration_path(cones, colours, (x, y), float(heading[first - 6]),
