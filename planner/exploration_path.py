@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
-from planner.gate_search import gate_search_path
+from planner.gate_search import cone_in_gate, gate_search_path
 
 FloatArray = NDArray[np.float64]
 
@@ -103,6 +103,9 @@ def exploration_path(
         left, right = gate
         if colour_blind and (left is None or right is None):
             break  # one cone and no colours: which side it bounds is a guess
+        if colour_blind and cone_in_gate(xy[left], xy[right],
+                                         np.delete(xy, [left, right], axis=0)):
+            break  # a cone stands in it: no colours say it is no boundary beside the path
         c, s = math.cos(yaw), math.sin(yaw)
         to_left = np.array([-s, c])
         if left is not None and right is not None:

@@ -47,6 +47,9 @@ CONE_IN_GATE_FRACTION = 0.3
 """A cone nearer an edge than this fraction of the edge's length, abreast of its middle
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
+ROW_TOLERANCE = 0.25
+"""A cone that stands off the line of a row's last two cones by at most this fraction of
+how far it stands beyond them goes on that row (about 14 degrees)."""
 LANE_NARROWING = 0.6
 """A gate that leaves less track across the path than this fraction of the median of the
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
@@ -113,8 +116,9 @@ def gate_search_path(
         return nothing
     search = _Search(xy[near], col[near], tri, track_width_m)
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
-        search.behind = _edges_crossed(xy[near], tri.simplices,
-                                       np.asarray(driven_xy_m, np.float64))
+        crossed = _crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
+        search.behind = {edge: side for edge, (side, _) in crossed.items()}
+        search.rows_driven = _rows_driven(crossed)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
@@ -129,11 +133,37 @@ def gate_search_path(
     return np.asarray(points, np.float64), used
 
 
+def cone_in_gate(a_xy_m: FloatArray, b_xy_m: FloatArray, cones_xy_m: FloatArray) -> bool:
+    """Whether any of ``cones_xy_m`` (N, 2) stands in the middle of the edge from ``a_xy_m``
+    to ``b_xy_m`` (2,) (m): within ``CONE_IN_GATE_FRACTION`` of its length of the edge, on
+    either side, abreast of its middle ``CONE_IN_GATE_SPAN``. A gate has the track between
+    its cones; an edge with a cone in it spans a boundary (past the end of a row of cones not
+    all mapped yet, from one lane across an infield to the next: hard:corner-start; along the
+    outer row of a bend wider than a gate: EUFS Hairpin with the camera dead)."""
+    edge = np.asarray(b_xy_m, np.float64) - a_xy_m
+    length2 = float(edge @ edge)
+    if length2 <= 0.0 or len(cones_xy_m) == 0:
+        return False
+    rel = np.asarray(cones_xy_m, np.float64).reshape(-1, 2) - a_xy_m
+    t = (rel @ edge) / length2
+    off = np.abs(edge[0] * rel[:, 1] - edge[1] * rel[:, 0]) / math.sqrt(length2)
+    inside = (np.abs(t - 0.5) <= 0.5 * CONE_IN_GATE_SPAN) & \
+        (off < CONE_IN_GATE_FRACTION * math.sqrt(length2))
+    return bool(np.any(inside))
+
+
 def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
                    path_xy: FloatArray) -> dict[tuple[int, int], float]:
     """The triangulation's edges (index pairs, lower first) that the polyline ``path_xy``
     (M, 2) crosses, each with the side it crossed it towards: the sign of the cross product of
     the edge (lower index to higher) and the path's step (its last crossing's, if several)."""
+    return {edge: side for edge, (side, _) in _crossings(xy, simplices, path_xy).items()}
+
+
+def _crossings(xy: FloatArray, simplices: NDArray[np.int32],
+               path_xy: FloatArray) -> dict[tuple[int, int], tuple[float, float]]:
+    """:func:`_edges_crossed`, each edge with the side and where along ``path_xy`` (its
+    segment index plus the fraction of that segment) the path last crossed it."""
     edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]],
                                               simplices[:, [2, 0]]]), axis=1), axis=0)
     p, r = xy[edges[:, 0]][:, None, :], (xy[edges[:, 1]] - xy[edges[:, 0]])[:, None, :]
@@ -147,11 +177,28 @@ def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
         t = cross(q - p, u) / denom  # along the edge
         v = cross(q - p, r) / denom  # along the path's segment
     hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (v >= 0.0) & (v <= 1.0)
-    out: dict[tuple[int, int], float] = {}
+    out: dict[tuple[int, int], tuple[float, float]] = {}
     for e in np.flatnonzero(np.any(hit, axis=1)):
         last = int(np.flatnonzero(hit[e])[-1])
-        out[(int(edges[e, 0]), int(edges[e, 1]))] = float(np.sign(denom[e, last]))
+        out[(int(edges[e, 0]), int(edges[e, 1]))] = (float(np.sign(denom[e, last])),
+                                                     last + float(v[e, last]))
     return out
+
+
+def _rows_driven(crossed: dict[tuple[int, int], tuple[float, float]]
+                 ) -> tuple[list[int], list[int]]:
+    """The cones the way driven passed on its left and on its right (index lists, in the
+    order it passed them), from the edges it crossed (:func:`_crossings`): a step that
+    crosses an edge (lower index to higher) towards its positive side has the lower cone on
+    its left. A cone passed on both sides (a path that wandered) counts where last passed."""
+    last: dict[int, tuple[float, int]] = {}
+    for (lo, hi), (side, where) in crossed.items():
+        left, right = (lo, hi) if side > 0.0 else (hi, lo)
+        for cone, on_left in ((left, 1), (right, 0)):
+            if cone not in last or last[cone][0] < where:
+                last[cone] = (where, on_left)
+    ordered = sorted(last, key=lambda i: last[i][0])
+    return ([i for i in ordered if last[i][1] == 1], [i for i in ordered if last[i][1] == 0])
 
 
 def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
@@ -214,6 +261,9 @@ class _Search:
         self.behind: dict[tuple[int, int], float] = {}
         """Edges (lower index first) the car has driven through, with the side it crossed
         them towards (:func:`_edges_crossed`): never a gate back the other way."""
+        self.rows_driven: tuple[list[int], list[int]] = ([], [])
+        """The cones the way driven passed on its left and on its right, in order
+        (:func:`_rows_driven`): the rows the path's own gates go on."""
 
     # -- gates ---------------------------------------------------------------------------
     def _gate_cost(self, a: int, b: int, from_xy: FloatArray
@@ -246,21 +296,43 @@ class _Search:
         return abs(math.cos(yaw_rad) * float(gy) - math.sin(yaw_rad) * float(gx))
 
     def _cone_in_the_gate(self, a: int, b: int, c: int) -> bool:
-        """Whether cone ``c`` (the third corner of the triangle the path is in) stands in the
-        middle of edge (a, b): within ``CONE_IN_GATE_FRACTION`` of its length of the edge,
-        abreast of its middle ``CONE_IN_GATE_SPAN``. A gate has the track between its cones;
-        an edge with a cone in it spans a boundary (past the end of a row of cones not all
-        mapped yet, from one lane across an infield to the next: hard:corner-start)."""
-        pa, pb, pc = self.xy[a], self.xy[b], self.xy[c]
-        edge = pb - pa
-        length2 = float(edge @ edge)
-        if length2 <= 0.0:
+        """Whether cone ``c`` stands in the middle of edge (a, b) (:func:`cone_in_gate`)."""
+        return cone_in_gate(self.xy[a], self.xy[b], self.xy[c][None, :])
+
+    def _continues_the_other_row(self, sides: tuple[int, int],
+                                 gates: tuple[tuple[int, int], ...]) -> bool:
+        """Whether the cone of unknown colour a gate (left, right) ``sides`` adds to the path's
+        ``gates`` stands where the other side's row goes on (its next cone, in line with the
+        row's last two and about their spacing further) and not where its own row goes on.
+        Without colours that edge joins two cones of one boundary: the path through it turns
+        out across the boundary (an infield between two stretches of track, FSSIM FSI with
+        the camera dead: the search turned into the stretch beside)."""
+        seen = {i for gate in gates for i in gate}
+        for new, own, other in ((sides[0], 0, 1), (sides[1], 1, 0)):
+            if new in seen or int(self.col[new]) in (BLUE, YELLOW):
+                continue
+            other_row = list(dict.fromkeys([*self.rows_driven[other],
+                                            *(g[other] for g in gates)]))
+            own_row = list(dict.fromkeys([*self.rows_driven[own], *(g[own] for g in gates)]))
+            return (self._in_line(other_row, new)
+                    and not self._in_line(own_row, new))
+        return False
+
+    def _in_line(self, row: list[int], new: int) -> bool:
+        """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
+        its last cone, within ``ROW_TOLERANCE`` of the line through its last two, and
+        between half and 1.5 times their spacing (plus half a metre) further."""
+        if len(row) < 2:
             return False
-        t = float((pc - pa) @ edge) / length2
-        if abs(t - 0.5) > 0.5 * CONE_IN_GATE_SPAN:
+        last, before = self.xy[row[-1]], self.xy[row[-2]]
+        direction = last - before
+        spacing = float(math.hypot(*direction))
+        if spacing <= 0.0:
             return False
-        off = abs(float(edge[0] * (pc - pa)[1] - edge[1] * (pc - pa)[0])) / math.sqrt(length2)
-        return off < CONE_IN_GATE_FRACTION * math.sqrt(length2)
+        rel = self.xy[new] - last
+        along = float(rel @ direction) / spacing
+        off = abs(float(direction[0] * rel[1] - direction[1] * rel[0])) / spacing
+        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= ROW_TOLERANCE * along
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
@@ -379,11 +451,16 @@ class _Search:
                 continue  # crossed so obliquely that it leaves no track width: a boundary
             if len(p.across_m) >= 2 and across < LANE_NARROWING * float(np.median(p.across_m)):
                 continue  # the lane narrows to a fraction of itself: along a boundary
-            if self._cone_in_the_gate(a, b, tri[k]):
+            nxt = int(self.neighbours[p.triangle][k])
+            beyond = -1 if nxt == -1 else next(
+                int(v) for v in self.simplices[nxt] if int(v) not in (a, b))
+            if any(self._cone_in_the_gate(a, b, corner) for corner in (tri[k], beyond)
+                   if corner >= 0):
                 continue  # it spans a boundary (a cone stands in it): two lanes, not one
+            if self._continues_the_other_row(sides, p.gates):
+                continue  # the cone it adds is the next of the other side's row
             if self._back_the_way_in(a, b, step):
                 continue
-            nxt = int(self.neighbours[p.triangle][k])
             if nxt in p.triangles:
                 continue
             out.append(_Partial(
