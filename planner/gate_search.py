@@ -50,6 +50,10 @@ CONE_IN_GATE_SPAN = 0.6
 ROW_TOLERANCE = 0.25
 """A cone that stands off the line of a row's last two cones by at most this fraction of
 how far it stands beyond them goes on that row (about 14 degrees)."""
+OWN_ROW_TOLERANCE = 0.7
+"""The same for the row a gate puts the cone on (about 35 degrees): a cone in line with the
+other side's row is that row's unless its own row may as well bend to it (a row seen over two
+cones only has no bend yet: the outer row of a hairpin turns 30 degrees a cone)."""
 LANE_NARROWING = 0.6
 """A gate that leaves less track across the path than this fraction of the median of the
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
@@ -314,14 +318,18 @@ class _Search:
             other_row = list(dict.fromkeys([*self.rows_driven[other],
                                             *(g[other] for g in gates)]))
             own_row = list(dict.fromkeys([*self.rows_driven[own], *(g[own] for g in gates)]))
-            return (self._in_line(other_row, new)
-                    and not self._in_line(own_row, new))
+            return (self._in_line(other_row, new, ROW_TOLERANCE)
+                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
         return False
 
-    def _in_line(self, row: list[int], new: int) -> bool:
+    def _in_line(self, row: list[int], new: int, tolerance: float) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
-        its last cone, within ``ROW_TOLERANCE`` of the line through its last two, and
-        between half and 1.5 times their spacing (plus half a metre) further."""
+        its last cone, between half and 1.5 times the last spacing (plus half a metre)
+        further, off the row's way on by at most ``tolerance`` times how far on it stands.
+        The way on is the line through the row's last two cones turned by its last turn (the
+        turn from its last but one step to its last: a row round a bend keeps turning; the
+        outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
+        chord, straight on, meets it)."""
         if len(row) < 2:
             return False
         last, before = self.xy[row[-1]], self.xy[row[-2]]
@@ -329,10 +337,15 @@ class _Search:
         spacing = float(math.hypot(*direction))
         if spacing <= 0.0:
             return False
+        heading = math.atan2(direction[1], direction[0])
+        if len(row) >= 3:
+            earlier = before - self.xy[row[-3]]
+            turn = math.remainder(heading - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
+            heading += turn
         rel = self.xy[new] - last
-        along = float(rel @ direction) / spacing
-        off = abs(float(direction[0] * rel[1] - direction[1] * rel[0])) / spacing
-        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= ROW_TOLERANCE * along
+        along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
+        off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
+        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
