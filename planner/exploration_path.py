@@ -103,8 +103,8 @@ def exploration_path(
         left, right = gate
         if colour_blind and (left is None or right is None):
             break  # one cone and no colours: which side it bounds is a guess
-        if colour_blind and cone_in_gate(xy[left], xy[right],
-                                         np.delete(xy, [left, right], axis=0)):
+        if colour_blind and left is not None and right is not None and cone_in_gate(
+                xy[left], xy[right], np.delete(xy, [left, right], axis=0)):
             break  # a cone stands in it: no colours say it is no boundary beside the path
         c, s = math.cos(yaw), math.sin(yaw)
         to_left = np.array([-s, c])

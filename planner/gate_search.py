@@ -414,7 +414,7 @@ class _Search:
                 if car_side * far_side >= 0.0:
                     continue
                 gate = self._gate_cost(a, b, start)
-                if gate is None:
+                if gate is None or self._cone_in_the_gate(a, b, int(tri[k])):
                     continue
                 cost, mid, sides = gate
                 rel = mid - start
