@@ -262,6 +262,7 @@ class _Search:
         self.width_m = track_width_m
         self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
         self.max_blind_gate_m = BLIND_GATE_WIDTHS * track_width_m
+        self.coloured = bool(np.any((col == BLUE) | (col == YELLOW)))
         self.behind: dict[tuple[int, int], float] = {}
         """Edges (lower index first) the car has driven through, with the side it crossed
         them towards (:func:`_edges_crossed`): never a gate back the other way."""
@@ -305,15 +306,22 @@ class _Search:
 
     def _continues_the_other_row(self, sides: tuple[int, int],
                                  gates: tuple[tuple[int, int], ...]) -> bool:
-        """Whether the cone of unknown colour a gate (left, right) ``sides`` adds to the path's
-        ``gates`` stands where the other side's row goes on (its next cone, in line with the
-        row's last two and about their spacing further) and not where its own row goes on.
-        Without colours that edge joins two cones of one boundary: the path through it turns
-        out across the boundary (an infield between two stretches of track, FSSIM FSI with
-        the camera dead: the search turned into the stretch beside)."""
+        """Whether, in a map without colours, the cone a gate (left, right) ``sides`` adds to
+        the path's ``gates`` stands where the other side's row goes on (its next cone, in
+        line with the row's last two and about their spacing further) and not where its own
+        row goes on. Without colours that edge joins two cones of one boundary: the path
+        through it turns out across the boundary (an infield between two stretches of track,
+        FSSIM FSI with the camera dead: the search turned into the stretch beside).
+
+        With colours the rows are the colours' and the rule is not applied: a cone of unknown
+        colour there is one not voted yet, and with the rule the plans changed near the far
+        end of the view enough to move the car by a few centimetres past an inner cone it
+        then touched (EUFS Hairpin seed 2, autocross)."""
+        if self.coloured:
+            return False
         seen = {i for gate in gates for i in gate}
         for new, own, other in ((sides[0], 0, 1), (sides[1], 1, 0)):
-            if new in seen or int(self.col[new]) in (BLUE, YELLOW):
+            if new in seen:
                 continue
             other_row = list(dict.fromkeys([*self.rows_driven[other],
                                             *(g[other] for g in gates)]))
