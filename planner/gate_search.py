@@ -422,7 +422,8 @@ class _Search:
                 if car_side * far_side >= 0.0:
                     continue
                 gate = self._gate_cost(a, b, start)
-                if gate is None or self._cone_in_the_gate(a, b, int(tri[k])):
+                if gate is None or (not self.coloured
+                                    and self._cone_in_the_gate(a, b, int(tri[k]))):
                     continue
                 cost, mid, sides = gate
                 rel = mid - start
@@ -473,7 +474,9 @@ class _Search:
             if len(p.across_m) >= 2 and across < LANE_NARROWING * float(np.median(p.across_m)):
                 continue  # the lane narrows to a fraction of itself: along a boundary
             nxt = int(self.neighbours[p.triangle][k])
-            beyond = -1 if nxt == -1 else next(
+            # the cone beyond the edge too, without colours (with them, a cone there is one
+            # in the lane, the manoeuvres' to clear)
+            beyond = -1 if nxt == -1 or self.coloured else next(
                 int(v) for v in self.simplices[nxt] if int(v) not in (a, b))
             if any(self._cone_in_the_gate(a, b, corner) for corner in (tri[k], beyond)
                    if corner >= 0):
