@@ -122,7 +122,8 @@ def gate_search_path(
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
         crossed = _crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
         search.behind = {edge: side for edge, (side, _) in crossed.items()}
-        search.rows_driven = _rows_driven(crossed)
+        if not search.coloured:  # with colours the rows are the colours'
+            search.rows_driven = _rows_driven(crossed)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
