@@ -52,9 +52,14 @@ ROW_TOLERANCE = 0.25
 most this fraction of how far it stands beyond the row's last cone goes on that row (about
 14 degrees)."""
 OWN_ROW_TOLERANCE = 0.7
-"""The same for the row a gate puts the cone on (about 35 degrees): a cone in line with the
-other side's row is that row's unless its own row may as well bend to it (a row seen over two
-cones only has no bend yet: the outer row of a hairpin turns 30 degrees a cone)."""
+"""The same for the row a gate puts the cone on (about 35 degrees, and less than
+``ROW_BEND_MAX_M`` aside): a cone in line with the other side's row is that row's
+unless its own row may as well bend to it (a row seen over two cones only has no bend yet:
+the outer row of a hairpin turns 30 degrees a cone, 1.1 m aside; the next cone of the other
+row of a straight 3 m lane with pairs 4.4 m apart stands 3 m aside, 34 degrees)."""
+ROW_BEND_MAX_M = MIN_GATE_M
+"""How far aside (m) a row's next cone may stand from the row's way on and still be its own
+row bending (:data:`OWN_ROW_TOLERANCE`): less than a gate's least width."""
 LANE_NARROWING = 0.6
 """A gate that leaves less track across the path than this fraction of the median of the
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
@@ -122,9 +127,9 @@ def gate_search_path(
     search = _Search(xy[near], col[near], tri, track_width_m)
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
         crossed = _crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
-        search.behind = {edge: side for edge, (side, _) in crossed.items()}
+        search.behind = {edge: crossing[0] for edge, crossing in crossed.items()}
         if not search.coloured:  # with colours the rows are the colours'
-            search.rows_driven = _rows_driven(crossed)
+            search.rows_driven = _rows_driven(crossed, xy[near], track_width_m)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
@@ -163,13 +168,14 @@ def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
     """The triangulation's edges (index pairs, lower first) that the polyline ``path_xy``
     (M, 2) crosses, each with the side it crossed it towards: the sign of the cross product of
     the edge (lower index to higher) and the path's step (its last crossing's, if several)."""
-    return {edge: side for edge, (side, _) in _crossings(xy, simplices, path_xy).items()}
+    return {edge: crossing[0] for edge, crossing in _crossings(xy, simplices, path_xy).items()}
 
 
 def _crossings(xy: FloatArray, simplices: NDArray[np.int32],
-               path_xy: FloatArray) -> dict[tuple[int, int], tuple[float, float]]:
-    """:func:`_edges_crossed`, each edge with the side and where along ``path_xy`` (its
-    segment index plus the fraction of that segment) the path last crossed it."""
+               path_xy: FloatArray) -> dict[tuple[int, int], tuple[float, float, float]]:
+    """:func:`_edges_crossed`, each edge with the side, where along ``path_xy`` (its segment
+    index plus the fraction of that segment) the path last crossed it, and where along the
+    edge (the fraction of it from its lower cone)."""
     edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]],
                                               simplices[:, [2, 0]]]), axis=1), axis=0)
     p, r = xy[edges[:, 0]][:, None, :], (xy[edges[:, 1]] - xy[edges[:, 0]])[:, None, :]
@@ -183,25 +189,30 @@ def _crossings(xy: FloatArray, simplices: NDArray[np.int32],
         t = cross(q - p, u) / denom  # along the edge
         v = cross(q - p, r) / denom  # along the path's segment
     hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (v >= 0.0) & (v <= 1.0)
-    out: dict[tuple[int, int], tuple[float, float]] = {}
+    out: dict[tuple[int, int], tuple[float, float, float]] = {}
     for e in np.flatnonzero(np.any(hit, axis=1)):
         last = int(np.flatnonzero(hit[e])[-1])
-        out[(int(edges[e, 0]), int(edges[e, 1]))] = (float(np.sign(denom[e, last])),
-                                                     last + float(v[e, last]))
+        out[(int(edges[e, 0]), int(edges[e, 1]))] = (
+            float(np.sign(denom[e, last])), last + float(v[e, last]), float(t[e, last]))
     return out
 
 
-def _rows_driven(crossed: dict[tuple[int, int], tuple[float, float]]
-                 ) -> tuple[list[int], list[int]]:
+def _rows_driven(crossed: dict[tuple[int, int], tuple[float, float, float]], xy: FloatArray,
+                 aside_m: float) -> tuple[list[int], list[int]]:
     """The cones the way driven passed on its left and on its right (index lists, in the
-    order it passed them), from the edges it crossed (:func:`_crossings`): a step that
-    crosses an edge (lower index to higher) towards its positive side has the lower cone on
-    its left. A cone passed on both sides (a path that wandered) counts where last passed."""
+    order it passed them), from the edges it crossed (:func:`_crossings`) among the cones
+    ``xy`` (N, 2): a step that crosses an edge (lower index to higher) towards its positive
+    side has the lower cone on its left. Only a cone at most ``aside_m`` (m) from where the
+    way crossed counts (a long edge to the row beyond a 3 m infield is crossed too, and its
+    far cone is no cone of the lane). A cone passed on both sides (a path that wandered)
+    counts where last passed."""
     last: dict[int, tuple[float, int]] = {}
-    for (lo, hi), (side, where) in crossed.items():
+    for (lo, hi), (side, where, t) in crossed.items():
+        length = float(math.hypot(*(xy[hi] - xy[lo])))
         left, right = (lo, hi) if side > 0.0 else (hi, lo)
         for cone, on_left in ((left, 1), (right, 0)):
-            if cone not in last or last[cone][0] < where:
+            aside = t * length if cone == lo else (1.0 - t) * length
+            if aside <= aside_m and (cone not in last or last[cone][0] < where):
                 last[cone] = (where, on_left)
     ordered = sorted(last, key=lambda i: last[i][0])
     return ([i for i in ordered if last[i][1] == 1], [i for i in ordered if last[i][1] == 0])
@@ -329,13 +340,15 @@ class _Search:
                                             *(g[other] for g in gates)]))
             own_row = list(dict.fromkeys([*self.rows_driven[own], *(g[own] for g in gates)]))
             return (self._in_line(other_row, new, ROW_TOLERANCE)
-                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
+                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE, ROW_BEND_MAX_M))
         return False
 
-    def _in_line(self, row: list[int], new: int, tolerance: float) -> bool:
+    def _in_line(self, row: list[int], new: int, tolerance: float,
+                 max_off_m: float = math.inf) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
         its last cone, between half and 1.5 times the last spacing (plus half a metre)
-        further, off the row's way on by at most ``tolerance`` times how far on it stands.
+        further, off the row's way on by at most ``tolerance`` times how far on it stands
+        and less than ``max_off_m`` (m).
         The way on is the line through the row's last two cones turned by its last turn (the
         turn from its last but one step to its last: a row round a bend keeps turning; the
         outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
@@ -355,7 +368,8 @@ class _Search:
         rel = self.xy[new] - last
         along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
         off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
-        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
+        return (0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
+                and off < max_off_m)
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove

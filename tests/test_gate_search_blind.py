@@ -48,6 +48,32 @@ def test_an_edge_along_a_row_is_no_gate_without_colours(monkeypatch) -> None:
     assert blind[:, 1].min() < -1.7 - 6.0, blind  # without the rule: into the other lane
 
 
+def test_a_straight_lane_keeps_to_itself_beside_another(monkeypatch) -> None:
+    """hard:hairpins' straights: a 3 m lane whose cones stand in pairs 4.4 m apart, and 3 m
+    beyond its left row the other stretch (as wide, its rows 1.6 m further on). Without
+    colours the left row's next cone, taken as a right cone, looks like the right row bending
+    34 degrees; it stands 3 m aside, more than a row bends in one spacing, so it is the left
+    row's and the path stays in its lane. Let the right row bend that far, and the path
+    turns across the left row into the other stretch."""
+    x = np.arange(-10.0, 60.0, 4.4)
+    rows = [np.c_[x + shift, np.full(len(x), y)]
+            for shift, y in ((0.0, 1.5), (0.0, -1.5), (1.6, 4.5), (1.6, 7.5))]
+    car_x = 24.5
+    cones = np.concatenate(rows)
+    cones = cones[np.hypot(cones[:, 0] - car_x, cones[:, 1]) < 20.0]
+    colours = np.full(len(cones), UNKNOWN)
+    driven = np.c_[np.linspace(car_x - 40.0, car_x - 3.0, 40), np.zeros(40)]
+
+    def path() -> np.ndarray:
+        return exploration_path(cones, colours, (car_x, 0.0), 0.0, track_width_m=WIDTH_M,
+                                behind_m=2.5, driven_xy_m=driven)
+
+    kept = path()
+    assert kept[-1][0] > car_x + 12.0 and np.all(np.abs(kept[:, 1]) < 1.5), kept
+    monkeypatch.setattr(gs, "ROW_BEND_MAX_M", np.inf)
+    assert np.max(path()[:, 1]) > 4.5
+
+
 def test_the_way_driven_gives_the_rows_in_order() -> None:
     """The cones a path drove past, each on its side, in the order passed (a cone's side from
     the edges the way crossed)."""
@@ -57,12 +83,20 @@ def test_the_way_driven_gives_the_rows_in_order() -> None:
     xy = np.r_[np.c_[xs, np.full(len(xs), 1.75)], np.c_[xs + 1.5, np.full(len(xs), -1.75)]]
     tri = Delaunay(xy)
     way = np.c_[np.linspace(-1.0, 9.0, 21), np.zeros(21)]
-    left, right = gs._rows_driven(gs._crossings(xy, tri.simplices, way))
+    left, right = gs._rows_driven(gs._crossings(xy, tri.simplices, way), xy, WIDTH_M)
     assert left == [0, 1, 2, 3]  # x = 0, 3, 6 and 9 (its edge to x = 7.5 crossed at 8.25)
     assert right == [5, 6, 7]  # x = 1.5, 4.5 and 7.5; not 10.5 (its edges cross y = 0 past 9)
-    back_left, back_right = gs._rows_driven(gs._crossings(xy, tri.simplices, way[::-1]))
+    back_left, back_right = gs._rows_driven(gs._crossings(xy, tri.simplices, way[::-1]), xy,
+                                           WIDTH_M)
     assert set(back_left) == set(right) and set(back_right) == set(left)
     assert back_left == sorted(back_left, reverse=True)  # driven the other way round
+    # an edge from the lane's right cone up to a cone 4.5 m beyond its left one (across an
+    # infield) is crossed too: that far cone is on the left, but no cone of the lane
+    xy = np.array([[0.0, 1.5], [0.0, -1.5], [2.0, 4.5]])
+    crossed = gs._crossings(xy, Delaunay(xy).simplices, np.array([[-1.0, 0.0], [1.5, 0.0]]))
+    assert set(crossed) == {(0, 1), (1, 2)}
+    assert gs._rows_driven(crossed, xy, WIDTH_M) == ([0], [1])
+    assert gs._rows_driven(crossed, xy, np.inf) == ([0, 2], [1])
 
 
 @pytest.fixture(scope="module")
