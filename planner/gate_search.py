@@ -60,6 +60,9 @@ row of a straight 3 m lane with pairs 4.4 m apart stands 3 m aside, 34 degrees).
 ROW_BEND_MAX_M = MIN_GATE_M
 """How far aside (m) a row's next cone may stand from the row's way on and still be its own
 row bending (:data:`OWN_ROW_TOLERANCE`): less than a gate's least width."""
+ROW_SPACING_MAX_M = 5.0
+"""The rules' largest spacing (m) of a boundary's cones: a row's next cone may stand that far
+on after a closer pair (the start line's orange cones stand 1 m apart, then 4 m on)."""
 LANE_NARROWING = 0.6
 """A gate that leaves less track across the path than this fraction of the median of the
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
@@ -346,13 +349,13 @@ class _Search:
     def _in_line(self, row: list[int], new: int, tolerance: float,
                  max_off_m: float = math.inf) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
-        its last cone, between half and 1.5 times the last spacing (plus half a metre)
-        further, off the row's way on by at most ``tolerance`` times how far on it stands
-        and less than ``max_off_m`` (m).
-        The way on is the line through the row's last two cones turned by its last turn (the
-        turn from its last but one step to its last: a row round a bend keeps turning; the
-        outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
-        chord, straight on, meets it)."""
+        its last cone, from half the last spacing to 1.5 times it or ``ROW_SPACING_MAX_M``,
+        whichever is more (plus half a metre), further; off the row's way on by at most
+        ``tolerance`` times how far on it stands, and less than ``max_off_m`` (m). The way
+        on is the line through the row's last two cones turned by its last turn (the turn
+        from its last but one step to its last: a row round a bend keeps turning; the outer
+        row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's chord,
+        straight on, meets it)."""
         if len(row) < 2:
             return False
         last, before = self.xy[row[-1]], self.xy[row[-2]]
@@ -368,8 +371,8 @@ class _Search:
         rel = self.xy[new] - last
         along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
         off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
-        return (0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
-                and off < max_off_m)
+        reach = max(1.5 * spacing, ROW_SPACING_MAX_M) + 0.5
+        return 0.5 * spacing <= along <= reach and off <= tolerance * along and off < max_off_m
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
