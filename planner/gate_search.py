@@ -48,9 +48,9 @@ CONE_IN_GATE_FRACTION = 0.3
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
 ROW_TOLERANCE = 0.25
-"""Without colours, a cone that stands off a row's way on (:meth:`_Search._in_line`) by at
-most this fraction of how far it stands beyond the row's last cone goes on that row (about
-14 degrees)."""
+"""Without colours, a cone that stands off the line of a row's last two cones
+(:meth:`_Search._in_line`) by at most this fraction of how far it stands beyond them goes on
+that row (about 14 degrees)."""
 OWN_ROW_TOLERANCE = 0.7
 """The same for the row a gate puts the cone on (about 35 degrees, and less than
 ``ROW_BEND_MAX_M`` aside): a cone in line with the other side's row is that row's
@@ -350,12 +350,11 @@ class _Search:
                  max_off_m: float = math.inf) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
         its last cone, from half the last spacing to 1.5 times it or ``ROW_SPACING_MAX_M``,
-        whichever is more (plus half a metre), further; off the row's way on by at most
-        ``tolerance`` times how far on it stands, and less than ``max_off_m`` (m). The way
-        on is the line through the row's last two cones turned by its last turn (the turn
-        from its last but one step to its last: a row round a bend keeps turning; the outer
-        row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's chord,
-        straight on, meets it)."""
+        whichever is more (plus half a metre), further; off the line through the row's last
+        two cones by at most ``tolerance`` times how far on it stands, and less than
+        ``max_off_m`` (m). A straight line: a row's turn so far says little of its next
+        (continued, the outer row of a hairpin just left seemed to bend on into the infield,
+        hard:corner-start with the camera dead)."""
         if len(row) < 2:
             return False
         last, before = self.xy[row[-1]], self.xy[row[-2]]
@@ -364,10 +363,6 @@ class _Search:
         if spacing <= 0.0:
             return False
         heading = math.atan2(direction[1], direction[0])
-        if len(row) >= 3:
-            earlier = before - self.xy[row[-3]]
-            turn = math.remainder(heading - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
-            heading += turn
         rel = self.xy[new] - last
         along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
         off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
