@@ -104,10 +104,7 @@ class PlannerConfig:
     (or over the distance driven in ``clearance_ramp_time_s``, whichever is longer)."""
     clearance_ramp_time_s: float = 0.6
     curvature_limit_fraction: float = 0.95
-    """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped
-    (the rest of the lock is the controller's, to correct the car), at speed: at or below
-    ``crawl_speed_mps`` the whole lock, and this fraction from twice that on (linear between:
-    at a crawl the car follows its path to a few centimetres)."""
+    """Candidates whose curvature exceeds this fraction of tan(max_steer)/wheelbase are dropped."""
     weight_curvature: float = 0.2
     """The baseframe is the racing line: a candidate's own curvature counts little."""
     weight_offset: float = 2.0

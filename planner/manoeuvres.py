@@ -89,19 +89,6 @@ class ManoeuvreGenerator:
         self.rejections: collections.Counter[str] = collections.Counter()
         """Rejected candidates by family and check (``"nominal: clearance"``, ...)."""
 
-    def curvature_limit_1pm(self, speed_mps: float) -> float:
-        """The most a candidate may bend (1/m) for a car at ``speed_mps`` (m/s): the whole
-        lock at or below ``crawl_speed_mps``, :attr:`kappa_max_1pm` (the configured fraction
-        of it) from twice that on, linear between. At a crawl the car follows its path to a
-        few centimetres, and the lock's last 5 % is what a rules-minimum hairpin asks: held
-        to 95 % there, the plans that fit were the ones a quarter of a metre outside the line,
-        each plan, and the car walked out to the outer cones at the exit (hard:hairpins
-        seeds 6, 7 and 10)."""
-        crawl = self.config.crawl_speed_mps
-        lock = self.kappa_max_1pm / self.config.curvature_limit_fraction
-        share = float(np.clip((abs(speed_mps) - crawl) / max(crawl, 1e-6), 0.0, 1.0))
-        return lock + share * (self.kappa_max_1pm - lock)
-
     def offsets(self) -> FloatArray:
         """The end-state offsets (m), symmetric about the baseframe."""
         c = self.config
@@ -324,14 +311,13 @@ class ManoeuvreGenerator:
             short = np.maximum(0.0, c.preferred_clearance_m - clear_all)
             cost_all = cost_all + np.where(np.isfinite(clear_all),
                                            c.weight_clearance * short * short, 0.0)
-        limit = self.curvature_limit_1pm(speed_mps)
-        bent_all = kmax_all > limit
+        bent_all = kmax_all > self.kappa_max_1pm
         cands: list[Candidate] = []
         for j in range(count):
             kmax = float(kmax_all[j])
             reason = ""
             if bent_all[j]:
-                reason = f"curvature {kmax:.3f} > {limit:.3f} 1/m"
+                reason = f"curvature {kmax:.3f} > {self.kappa_max_1pm:.3f} 1/m"
             collision_free = not hit_all[j]
             out = leaves is not None and bool(leaves[j])
             if not collision_free:
