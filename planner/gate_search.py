@@ -57,9 +57,12 @@ OWN_ROW_TOLERANCE = 0.7
 unless its own row may as well bend to it (a row seen over two cones only has no bend yet:
 the outer row of a hairpin turns 30 degrees a cone, 1.1 m aside; the next cone of the other
 row of a straight 3 m lane with pairs 4.4 m apart stands 3 m aside, 34 degrees)."""
-ROW_BEND_MAX_M = MIN_GATE_M
-"""How far aside (m) a row's next cone may stand from the row's way on and still be its own
-row bending (:data:`OWN_ROW_TOLERANCE`): less than a gate's least width."""
+ROW_BEND_MAX_M = 2.8
+"""How far aside (m) a row's next cone may stand from the line of its last two and still be
+its own row bending (:data:`OWN_ROW_TOLERANCE`): less than the rules' least track width (3 m)
+by the cones' placement on the map (0.2 m). A cone a whole track width aside is where the
+other row would be (a straight 3 m lane with cones in pairs); the outer row of a wide bend
+with cones 5 m apart stands 2.5-2.7 m aside (FSDS Training)."""
 ROW_SPACING_MAX_M = 5.0
 """The rules' largest spacing (m) of a boundary's cones: a row's next cone may stand that far
 on after a closer pair (the start line's orange cones stand 1 m apart, then 4 m on)."""
