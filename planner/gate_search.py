@@ -48,24 +48,12 @@ CONE_IN_GATE_FRACTION = 0.3
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
 ROW_TOLERANCE = 0.25
-"""Without colours, a cone that stands off the line of a row's last two cones
-(:meth:`_Search._in_line`) by at most this fraction of how far it stands beyond them goes on
-that row (about 14 degrees)."""
+"""A cone that stands off the line of a row's last two cones by at most this fraction of
+how far it stands beyond them goes on that row (about 14 degrees)."""
 OWN_ROW_TOLERANCE = 0.7
-"""The same for the row a gate puts the cone on (about 35 degrees, and less than
-``ROW_BEND_MAX_M`` aside): a cone in line with the other side's row is that row's
-unless its own row may as well bend to it (a row seen over two cones only has no bend yet:
-the outer row of a hairpin turns 30 degrees a cone, 1.1 m aside; the next cone of the other
-row of a straight 3 m lane with pairs 4.4 m apart stands 3 m aside, 34 degrees)."""
-ROW_BEND_MAX_M = 2.8
-"""How far aside (m) a row's next cone may stand from the line of its last two and still be
-its own row bending (:data:`OWN_ROW_TOLERANCE`): less than the rules' least track width (3 m)
-by the cones' placement on the map (0.2 m). A cone a whole track width aside is where the
-other row would be (a straight 3 m lane with cones in pairs); the outer row of a wide bend
-with cones 5 m apart stands 2.5-2.7 m aside (FSDS Training)."""
-ROW_SPACING_MAX_M = 5.0
-"""The rules' largest spacing (m) of a boundary's cones: a row's next cone may stand that far
-on after a closer pair (the start line's orange cones stand 1 m apart, then 4 m on)."""
+"""The same for the row a gate puts the cone on (about 35 degrees): a cone in line with the
+other side's row is that row's unless its own row may as well bend to it (a row seen over two
+cones only has no bend yet: the outer row of a hairpin turns 30 degrees a cone)."""
 LANE_NARROWING = 0.6
 """A gate that leaves less track across the path than this fraction of the median of the
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
@@ -346,18 +334,17 @@ class _Search:
                                             *(g[other] for g in gates)]))
             own_row = list(dict.fromkeys([*self.rows_driven[own], *(g[own] for g in gates)]))
             return (self._in_line(other_row, new, ROW_TOLERANCE)
-                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE, ROW_BEND_MAX_M))
+                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
         return False
 
-    def _in_line(self, row: list[int], new: int, tolerance: float,
-                 max_off_m: float = math.inf) -> bool:
+    def _in_line(self, row: list[int], new: int, tolerance: float) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
-        its last cone, from half the last spacing to 1.5 times it or ``ROW_SPACING_MAX_M``,
-        whichever is more (plus half a metre), further; off the line through the row's last
-        two cones by at most ``tolerance`` times how far on it stands, and less than
-        ``max_off_m`` (m). A straight line: a row's turn so far says little of its next
-        (continued, the outer row of a hairpin just left seemed to bend on into the infield,
-        hard:corner-start with the camera dead)."""
+        its last cone, between half and 1.5 times the last spacing (plus half a metre)
+        further, off the row's way on by at most ``tolerance`` times how far on it stands.
+        The way on is the line through the row's last two cones turned by its last turn (the
+        turn from its last but one step to its last: a row round a bend keeps turning; the
+        outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
+        chord, straight on, meets it)."""
         if len(row) < 2:
             return False
         last, before = self.xy[row[-1]], self.xy[row[-2]]
@@ -366,11 +353,14 @@ class _Search:
         if spacing <= 0.0:
             return False
         heading = math.atan2(direction[1], direction[0])
+        if len(row) >= 3:
+            earlier = before - self.xy[row[-3]]
+            turn = math.remainder(heading - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
+            heading += turn
         rel = self.xy[new] - last
         along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
         off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
-        reach = max(1.5 * spacing, ROW_SPACING_MAX_M) + 0.5
-        return 0.5 * spacing <= along <= reach and off <= tolerance * along and off < max_off_m
+        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
