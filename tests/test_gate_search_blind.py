@@ -48,32 +48,6 @@ def test_an_edge_along_a_row_is_no_gate_without_colours(monkeypatch) -> None:
     assert blind[:, 1].min() < -1.7 - 6.0, blind  # without the rule: into the other lane
 
 
-def test_a_straight_lane_keeps_to_itself_beside_another(monkeypatch) -> None:
-    """hard:hairpins' straights: a 3 m lane whose cones stand in pairs 4.4 m apart, and 3 m
-    beyond its left row the other stretch (as wide, its rows 1.6 m further on). Without
-    colours the left row's next cone, taken as a right cone, looks like the right row bending
-    34 degrees; it stands 3 m aside, more than a row bends in one spacing, so it is the left
-    row's and the path stays in its lane. Let the right row bend that far, and the path
-    turns across the left row into the other stretch."""
-    x = np.arange(-10.0, 60.0, 4.4)
-    rows = [np.c_[x + shift, np.full(len(x), y)]
-            for shift, y in ((0.0, 1.5), (0.0, -1.5), (1.6, 4.5), (1.6, 7.5))]
-    car_x = 24.5
-    cones = np.concatenate(rows)
-    cones = cones[np.hypot(cones[:, 0] - car_x, cones[:, 1]) < 20.0]
-    colours = np.full(len(cones), UNKNOWN)
-    driven = np.c_[np.linspace(car_x - 40.0, car_x - 3.0, 40), np.zeros(40)]
-
-    def path() -> np.ndarray:
-        return exploration_path(cones, colours, (car_x, 0.0), 0.0, track_width_m=WIDTH_M,
-                                behind_m=2.5, driven_xy_m=driven)
-
-    kept = path()
-    assert kept[-1][0] > car_x + 12.0 and np.all(np.abs(kept[:, 1]) < 1.5), kept
-    monkeypatch.setattr(gs, "ROW_BEND_MAX_M", np.inf)
-    assert np.max(path()[:, 1]) > 4.5
-
-
 def test_the_way_driven_gives_the_rows_in_order() -> None:
     """The cones a path drove past, each on its side, in the order passed (a cone's side from
     the edges the way crossed)."""
