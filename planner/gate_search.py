@@ -48,8 +48,9 @@ CONE_IN_GATE_FRACTION = 0.3
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
 ROW_TOLERANCE = 0.25
-"""A cone that stands off the line of a row's last two cones by at most this fraction of
-how far it stands beyond them goes on that row (about 14 degrees)."""
+"""Without colours, a cone that stands off a row's way on (:meth:`_Search._in_line`) by at
+most this fraction of how far it stands beyond the row's last cone goes on that row (about
+14 degrees)."""
 OWN_ROW_TOLERANCE = 0.7
 """The same for the row a gate puts the cone on (about 35 degrees): a cone in line with the
 other side's row is that row's unless its own row may as well bend to it (a row seen over two
