@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
-from planner.gate_search import cone_in_gate, gate_search_path
+from planner.gate_search import cone_in_gate, gate_search_path, has_colours
 
 FloatArray = NDArray[np.float64]
 
@@ -94,7 +94,7 @@ def exploration_path(
         unused &= ~bounding
         behind_m = -0.3
     half = 0.5 * track_width_m
-    colour_blind = not bool(np.any((col == BLUE) | (col == YELLOW)))
+    colour_blind = not has_colours(col)
     for k in range(max_points - len(points) + 1):
         gate = _next_gate(xy, col, unused, point, yaw, look_ahead_m, track_width_m,
                           behind_m if k == 0 else -0.3)

@@ -139,6 +139,12 @@ def gate_search_path(
     return np.asarray(points, np.float64), used
 
 
+def has_colours(colours: NDArray[np.int64]) -> bool:
+    """Whether any of ``colours`` (N,) is blue or yellow: without, the camera is dead (or has
+    not voted yet) and the rows are told apart by their shape alone."""
+    return bool(np.any((colours == BLUE) | (colours == YELLOW)))
+
+
 def cone_in_gate(a_xy_m: FloatArray, b_xy_m: FloatArray, cones_xy_m: FloatArray) -> bool:
     """Whether any of ``cones_xy_m`` (N, 2) stands in the middle of the edge from ``a_xy_m``
     to ``b_xy_m`` (2,) (m): within ``CONE_IN_GATE_FRACTION`` of its length of the edge, on
@@ -270,7 +276,7 @@ class _Search:
         self.width_m = track_width_m
         self.max_gate_m = MAX_GATE_WIDTHS * track_width_m
         self.max_blind_gate_m = BLIND_GATE_WIDTHS * track_width_m
-        self.coloured = bool(np.any((col == BLUE) | (col == YELLOW)))
+        self.coloured = has_colours(col)
         self.behind: dict[tuple[int, int], float] = {}
         """Edges (lower index first) the car has driven through, with the side it crossed
         them towards (:func:`_edges_crossed`): never a gate back the other way."""
@@ -307,10 +313,6 @@ class _Search:
         """The track edge (a, b) leaves across a path heading ``yaw_rad`` through it (m)."""
         gx, gy = self.xy[b] - self.xy[a]
         return abs(math.cos(yaw_rad) * float(gy) - math.sin(yaw_rad) * float(gx))
-
-    def _cone_in_the_gate(self, a: int, b: int, c: int) -> bool:
-        """Whether cone ``c`` stands in the middle of edge (a, b) (:func:`cone_in_gate`)."""
-        return cone_in_gate(self.xy[a], self.xy[b], self.xy[c][None, :])
 
     def _continues_the_other_row(self, sides: tuple[int, int],
                                  gates: tuple[tuple[int, int], ...]) -> bool:
@@ -430,8 +432,8 @@ class _Search:
                 if car_side * far_side >= 0.0:
                     continue
                 gate = self._gate_cost(a, b, start)
-                if gate is None or (not self.coloured
-                                    and self._cone_in_the_gate(a, b, int(tri[k]))):
+                if gate is None or (not self.coloured and cone_in_gate(
+                        self.xy[a], self.xy[b], self.xy[[int(tri[k])]])):
                     continue
                 cost, mid, sides = gate
                 rel = mid - start
@@ -482,12 +484,12 @@ class _Search:
             if len(p.across_m) >= 2 and across < LANE_NARROWING * float(np.median(p.across_m)):
                 continue  # the lane narrows to a fraction of itself: along a boundary
             nxt = int(self.neighbours[p.triangle][k])
-            # the cone beyond the edge too, without colours (with them, a cone there is one
-            # in the lane, the manoeuvres' to clear)
-            beyond = -1 if nxt == -1 or self.coloured else next(
-                int(v) for v in self.simplices[nxt] if int(v) not in (a, b))
-            if any(self._cone_in_the_gate(a, b, corner) for corner in (tri[k], beyond)
-                   if corner >= 0):
+            # the third corner of the path's triangle, and without colours the one beyond the
+            # edge too (with colours a cone there is one in the lane, the manoeuvres' to clear)
+            corners = [tri[k]]
+            if nxt != -1 and not self.coloured:
+                corners += [int(v) for v in self.simplices[nxt] if int(v) not in (a, b)]
+            if cone_in_gate(self.xy[a], self.xy[b], self.xy[corners]):
                 continue  # it spans a boundary (a cone stands in it): two lanes, not one
             if self._continues_the_other_row(sides, p.gates):
                 continue  # the cone it adds is the next of the other side's row
