@@ -37,6 +37,10 @@ inner sides; two cones of one side stand closer in a tight bend."""
 MIN_ACROSS_M = MIN_GATE_M
 """Least track a gate leaves across the path's step through it (m): an edge crossed so
 obliquely that less is left is a boundary seen at a slant (cones of one side, colour unknown)."""
+ENTRY_AHEAD_M = 0.5
+"""The car's entry gate (the one it came through into its triangle) may have its midpoint up
+to this far ahead of the car (m): a gate at a slant beside it (as the march's gate beside the
+car, ``planner.exploration_path``)."""
 MAX_GATE_WIDTHS = 2.7
 """Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
 BLIND_GATE_WIDTHS = 1.9
@@ -388,6 +392,43 @@ class _Search:
         return int(hits[0]) if len(hits) else -1
 
     # -- seeds ---------------------------------------------------------------------------
+    def _entry_gate(self, tri: NDArray[np.int64], start: FloatArray, yaw: float, behind_m: float
+                    ) -> tuple[tuple[int, int], FloatArray, tuple[int, int]] | None:
+        """The gate the car came through into its triangle ``tri`` (3,): the edge a line back
+        from the car along its heading leaves the triangle by, when that edge is a gate whose
+        midpoint is at most ``behind_m`` behind the car (and less than ``ENTRY_AHEAD_M``
+        ahead: a gate across the track at a slant). Returns the edge, its midpoint and its
+        (left, right) cones; None when there is none. The path then starts at it, so a car off
+        the middle sees its offset instead of a path through itself, whichever triangle it
+        is in (the nearest gate behind by its midpoint can be the one ahead, at a slant)."""
+        heading = np.array([math.cos(yaw), math.sin(yaw)])
+        best_t, edge = math.inf, None
+        for k in range(3):
+            a, b = int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
+            pa, along = self.xy[a], self.xy[b] - self.xy[a]
+            # start - t * heading = pa + u * along, solved for (t, u)
+            det = float(along[0] * heading[1] - along[1] * heading[0])
+            if abs(det) < 1e-12:
+                continue
+            rel = start - pa
+            t = float(along[0] * rel[1] - along[1] * rel[0]) / det
+            u = float(rel[0] * heading[1] - rel[1] * heading[0]) / det
+            if 0.0 <= u <= 1.0 and 0.0 <= t < best_t:
+                best_t, edge = t, (a, b)
+        if edge is None:
+            return None
+        a, b = edge
+        # crossed along the car's heading (from a point behind the car, a gate beside it
+        # would be crossed sideways and its sides swap)
+        gate = self._gate_cost(a, b, 0.5 * (self.xy[a] + self.xy[b]) - heading)
+        if gate is None or self._across_m(a, b, yaw) < MIN_ACROSS_M:
+            return None
+        mid = gate[1]
+        ahead = float((mid - start) @ heading)
+        if not -behind_m <= ahead < ENTRY_AHEAD_M:
+            return None
+        return (a, b), mid, gate[2]
+
     def seeds(self, start: FloatArray, yaw: float, behind_m: float) -> list[_Partial]:
         """The search's first partial paths: in the car's triangle (entered by its edge behind
         the car), or through the gates ahead of a car outside the triangulation."""
@@ -397,22 +438,7 @@ class _Search:
         origin = (float(start[0]), float(start[1]))
         if t0 >= 0:
             tri = self.simplices[t0]
-            entry = None
-            if behind_m > 0.0:
-                # the car's gate behind it: the path starts there (a car off the middle sees
-                # its offset instead of a path through itself)
-                best_ahead = 0.3
-                for k in range(3):
-                    a, b = int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
-                    gate = self._gate_cost(a, b, start - 2.0 * np.array([c, s]))
-                    if gate is None:
-                        continue
-                    mid = gate[1]
-                    if self._across_m(a, b, yaw) < MIN_ACROSS_M:
-                        continue  # a boundary beside the car, not the gate it came through
-                    ahead = float((mid - start) @ np.array([c, s]))
-                    if -behind_m <= ahead < best_ahead:
-                        best_ahead, entry = ahead, ((a, b), mid, gate[2])
+            entry = self._entry_gate(tri, start, yaw, behind_m) if behind_m > 0.0 else None
             if entry is not None:
                 (a, b), mid, sides = entry
                 out.append(_Partial(((float(mid[0]), float(mid[1])),), t0, (a, b), yaw, 0.0,

@@ -239,3 +239,26 @@ def test_without_colours_the_march_stops_at_a_lone_cone() -> None:
     assert coloured[-1, 0] > 18.0 and np.all(np.abs(coloured[:, 1]) < HALF_WIDTH_M)
     assert blind[-1, 0] < 12.0 and np.all(np.abs(blind[:, 1]) < HALF_WIDTH_M)
 
+
+
+def _staggered_straight() -> tuple[np.ndarray, np.ndarray]:
+    """A straight lane along +x, 3.5 m wide, its blue cones every 5 m from x = 0 and its
+    yellow ones every 5 m from x = 2.5 (each gate at a slant): cones (N, 2), colours (N,)."""
+    left = np.c_[np.arange(-10.0, 40.0, 5.0), np.full(10, HALF_WIDTH_M)]
+    right = np.c_[np.arange(-7.5, 40.0, 5.0), np.full(10, -HALF_WIDTH_M)]
+    return np.r_[left, right], np.r_[np.full(10, BLUE), np.full(10, YELLOW)]
+
+
+def test_a_car_off_the_middle_starts_its_path_at_the_gate_it_came_through() -> None:
+    # The car 0.6 m left of the middle, heading a little back towards it, at every 0.25 m of
+    # two cone spacings: the path always starts on the middle (the midpoint of the gate the
+    # car came through), never at the car itself. Started at the car, the car would sit on
+    # its own path in one plan and 0.6 m off the gate's path in the next: the planner's
+    # chosen offset would jump with it.
+    cones, colours = _staggered_straight()
+    for x_m in np.arange(0.0, 10.0, 0.25):
+        path = exploration_path(cones, colours, (float(x_m), 0.6), -0.05,
+                                track_width_m=2.0 * HALF_WIDTH_M, behind_m=2.5)
+        assert len(path) >= 4, x_m
+        assert abs(path[0, 1]) < 1e-9, (x_m, path[0])  # on the middle, not at the car
+        assert -5.0 <= path[0, 0] - x_m <= 0.5, (x_m, path[0])  # the gate beside or behind
