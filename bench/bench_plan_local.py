@@ -48,7 +48,7 @@ from common.cli_types import (
 )
 from common.messages import ConeColour, ConeMap, MapState, PoseEstimate
 from orchestrator.config import AppConfig
-from planner.exploration_path import exploration_path
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.path_planner import PathPlanner
 from simulator.track import Track
 
@@ -176,7 +176,8 @@ def measure(config: AppConfig, track: Track, views: list[ConeView],
         pose = state.pose
         t0 = time.perf_counter()
         exploration_path(state.cones.xy_m, state.cones.colour, (pose.x_m, pose.y_m),
-                         pose.yaw_rad, track_width_m=pc.nominal_track_width_m, behind_m=2.5)
+                         pose.yaw_rad, track_width_m=pc.nominal_track_width_m,
+                         behind_m=ENTRY_BEHIND_M)
         t1 = time.perf_counter()
         made = local.explore(state)
         t2 = time.perf_counter()

@@ -46,6 +46,12 @@ OWN_COLOUR_REACH_M = 3.0
 cone) when it is at most this much (m) further; further on it is the boundary's next cone and
 the nearer one the boundary's, its colour not yet voted (the first cones seen at the start)."""
 
+ENTRY_BEHIND_M = 6.0
+"""How far behind the car (m) the gate it came through may be for the exploring path to
+start there (the planner's ``behind_m``): beyond the rules' longest cone spacing (5 m), so the
+path starts at that gate wherever the car is in its triangle, not at the gate in one plan and
+at the car, off the middle, in the next (at 2.5 m: FSSIM thin autocross seed 3)."""
+
 MIN_STEP_M = 1.5
 """A gate nearer than this ahead of the last point (m) is passed, not stepped to."""
 

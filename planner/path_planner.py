@@ -22,7 +22,7 @@ from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate,
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.boundary_walls import boundary_walls
 from planner.config import PlannerConfig
-from planner.exploration_path import exploration_path
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.exploration_speed import (
     exploring_curvature,
     exploring_speed_limit_mps,
@@ -341,7 +341,7 @@ class PathPlanner:
             driven = self._explored.driven_behind() if self._explored is not None else None
             pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                    (pose.x_m, pose.y_m), pose.yaw_rad,
-                                   track_width_m=c.nominal_track_width_m, behind_m=2.5,
+                                   track_width_m=c.nominal_track_width_m, behind_m=ENTRY_BEHIND_M,
                                    driven_xy_m=driven)
             if len(pts) < 3:  # a gate or two: from the car itself
                 pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,

@@ -11,7 +11,7 @@ from common.car import CarConfig
 from common.messages import ConeColour
 from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
-from planner.exploration_path import exploration_path
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.exploring_line import bends_beyond, steerable_frame
 from planner.manoeuvres import ManoeuvreGenerator
 from planner.track_model import most_room_offsets
@@ -28,7 +28,7 @@ def _gates_frame(cones: np.ndarray, colours: np.ndarray, x: float, y: float, yaw
                  ) -> SplineBaseframe:
     """The exploring frame the planner builds through the gates seen from (x, y, yaw)."""
     pts = exploration_path(cones, colours, (x, y), yaw,
-                           track_width_m=CONFIG.nominal_track_width_m, behind_m=2.5)
+                           track_width_m=CONFIG.nominal_track_width_m, behind_m=ENTRY_BEHIND_M)
     return SplineBaseframe(pts, False, resample_m=CONFIG.baseframe_resample_m,
                            smoothing_m=CONFIG.baseframe_smoothing_m,
                            step_m=CONFIG.baseframe_step_m,

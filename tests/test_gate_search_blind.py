@@ -9,7 +9,7 @@ import pytest
 
 import planner.gate_search as gs
 from common.messages import ConeColour
-from planner.exploration_path import exploration_path
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.gate_search import cone_in_gate, gate_search_path
 from simulator.hard_tracks import first_arc, hard_track
 
@@ -91,7 +91,7 @@ def _goes_round(cones: np.ndarray, pose: np.ndarray, centre: np.ndarray) -> bool
     x, y, yaw = pose
     seen = np.hypot(cones[:, 0] - x, cones[:, 1] - y) < 20.0
     path = exploration_path(cones[seen], np.full(int(seen.sum()), UNKNOWN), (x, y), yaw,
-                            track_width_m=WIDTH_M, behind_m=2.5)
+                            track_width_m=WIDTH_M, behind_m=ENTRY_BEHIND_M)
     beyond = path[path[:, 1] > centre[1] + 1.0]  # the way out, past the bend's middle
     return len(beyond) > 0 and float(beyond[:, 0].min()) < centre[0] - 1.0
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from common.messages import ConeColour
 from common.polyline import nearest_on_polyline, resample
-from planner.exploration_path import exploration_path
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.gate_search import gate_search_path
 
 BLUE, YELLOW = int(ConeColour.BLUE), int(ConeColour.YELLOW)
@@ -258,7 +258,7 @@ def test_a_car_off_the_middle_starts_its_path_at_the_gate_it_came_through() -> N
     cones, colours = _staggered_straight()
     for x_m in np.arange(0.0, 10.0, 0.25):
         path = exploration_path(cones, colours, (float(x_m), 0.6), -0.05,
-                                track_width_m=2.0 * HALF_WIDTH_M, behind_m=2.5)
+                                track_width_m=2.0 * HALF_WIDTH_M, behind_m=ENTRY_BEHIND_M)
         assert len(path) >= 4, x_m
         assert abs(path[0, 1]) < 1e-9, (x_m, path[0])  # on the middle, not at the car
         assert -5.0 <= path[0, 0] - x_m <= 0.5, (x_m, path[0])  # the gate beside or behind

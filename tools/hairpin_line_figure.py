@@ -21,7 +21,7 @@ from common.car import CarConfig  # noqa: E402
 from common.messages import ConeColour  # noqa: E402
 from planner.baseframe import SplineBaseframe  # noqa: E402
 from planner.config import PlannerConfig  # noqa: E402
-from planner.exploration_path import exploration_path  # noqa: E402
+from planner.exploration_path import ENTRY_BEHIND_M, exploration_path  # noqa: E402
 from planner.exploring_line import steerable_frame  # noqa: E402
 from planner.manoeuvres import ManoeuvreGenerator  # noqa: E402
 from simulator.hard_tracks import first_arc, hard_track  # noqa: E402
@@ -52,7 +52,7 @@ def draw(out: Path) -> None:
     seen = np.hypot(track.cones_xy_m[:, 0] - x, track.cones_xy_m[:, 1] - y) < SEEN_M
     cones, colours = track.cones_xy_m[seen], track.colours[seen]
     pts = exploration_path(cones, colours, (x, y), float(heading[first - 6]),
-                           track_width_m=config.nominal_track_width_m, behind_m=2.5)
+                           track_width_m=config.nominal_track_width_m, behind_m=ENTRY_BEHIND_M)
     gates = SplineBaseframe(pts, False, resample_m=config.baseframe_resample_m,
                             smoothing_m=config.baseframe_smoothing_m,
                             step_m=config.baseframe_step_m,
