@@ -317,6 +317,11 @@ class SlamConfig:
     the start's big cones again from another stretch of track across the infield (FSG, cones
     mapped to 15 m: 18 m behind the car, on its line of travel, they closed the loop half a
     lap early, the map froze and the exploration stopped at the end of the cones seen)."""
+    big_cone_heading_max_rad: float = 1.0
+    """... and only while the car heads within this (rad) of its heading at the start: it
+    crosses the start line the way it left it. A stretch of track beside the start runs the
+    other way (hard:hairpins: the car passed the start's big cones 4 m across the infield,
+    heading back, and the loop closed 65 m early; the map froze without the hairpin ahead)."""
     min_big_cone_votes: float = 3.0
     """Votes (detections) a landmark needs before it counts as a big orange cone."""
     closure_covariance_inflation: float = 4.0

@@ -174,14 +174,18 @@ def test_merge_deletes_rows_and_columns() -> None:
     assert np.all(np.linalg.eigvalsh(slam.P) > 0)
 
 
-def _start_with_big_cones(new_xy: np.ndarray, car_x_m: float) -> EkfSlam:
+def _start_with_big_cones(new_xy: np.ndarray, car_x_m: float, car_yaw_rad: float = 0.0
+                          ) -> EkfSlam:
     """A filter a lap after the start: the start's four big orange cones mapped long ago (two
     rows 2.6 m apart, FSG's layout) and ``new_xy`` mapped again just now, 0.3 m off by drift;
-    the car at ``car_x_m`` on the x axis heading +x."""
+    the car, which started heading +x, now at ``car_x_m`` on the x axis heading
+    ``car_yaw_rad``."""
     old_xy = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
     slam = _filter_with_landmarks(np.vstack([old_xy, new_xy + [0.3, 0.1]]), 0.1)
+    assert not slam.try_close_loop()  # at the start, heading +x
     x = slam.x.copy()
     x[0] = car_x_m
+    x[2] = car_yaw_rad
     slam.load_state(x, slam.P)
     slam.odometer_m = 300.0
     book = slam.book
@@ -219,6 +223,19 @@ def test_loop_does_not_close_on_big_cones_far_behind_the_car() -> None:
     assert not slam.try_close_loop()
     slam = _start_with_big_cones(three, car_x_m=7.25 + slam.cfg.big_cone_behind_max_m - 1.0)
     assert slam.try_close_loop()
+
+
+def test_loop_does_not_close_on_big_cones_passed_heading_the_other_way() -> None:
+    # The start's big cones mapped again from a stretch beside the start that runs back the
+    # other way (a hairpin's straights side by side): near the car's line of travel and just
+    # behind it, but the car does not cross the start line the way it left it.
+    three = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5]])
+    slam = _start_with_big_cones(three, car_x_m=4.0, car_yaw_rad=math.pi)
+    assert not slam.try_close_loop()
+    slam = _start_with_big_cones(three, car_x_m=4.0, car_yaw_rad=0.5 * math.pi)
+    assert not slam.try_close_loop()  # across the start line: a crossing stretch
+    slam = _start_with_big_cones(three, car_x_m=4.0, car_yaw_rad=0.3)
+    assert slam.try_close_loop()  # arriving, a little askew
 
 
 def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> None:

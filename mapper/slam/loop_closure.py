@@ -41,6 +41,8 @@ class LoopClosure:
         self.closed = False
         self.odometer_m = math.nan
         self.merged = 0
+        self.start_yaw_rad = math.nan
+        """The car's heading at the first sweep (rad): the way it crosses the start line."""
 
     def try_close(self, ekf: SlamEkf, book: LandmarkBook, odometer_m: float) -> bool:
         """Close the loop if it can be now; True once it is closed.
@@ -48,14 +50,20 @@ class LoopClosure:
         Tried after ``min_lap_distance_m`` of travel when new big orange cones (created within
         the last ``unseen_travel_m``) and old ones (not seen for longer) are both in the map,
         the new ones are on the car's line of travel (``big_cone_lateral_max_m``) and not far
-        behind the car (``big_cone_behind_max_m``), and either
+        behind the car (``big_cone_behind_max_m``), the car heads the way it started
+        (``big_cone_heading_max_rad``), and either
         as many new as old are seen, or the match is unambiguous, or the old ones are behind
         the car (no more new ones will come).
         """
         if self.closed:
             return True
         c = self.cfg
+        if math.isnan(self.start_yaw_rad):
+            self.start_yaw_rad = float(ekf.xbuf[2])
         if odometer_m < c.min_lap_distance_m or ekf.n_landmarks == 0:
+            return False
+        turned = math.remainder(float(ekf.xbuf[2]) - self.start_yaw_rad, 2.0 * math.pi)
+        if abs(turned) > c.big_cone_heading_max_rad:
             return False
         ekf.flush()
         big = book.big_orange(c.min_big_cone_votes)
