@@ -78,6 +78,24 @@ class RunLog:
             "final_offset_m": float(np.hypot(*d[-1])),
         }
 
+    def steering_while_exploring(self, moving_mps: float = 1.0) -> dict[str, float]:
+        """How much the commanded steering moved while the car explored (the map not yet
+        frozen, the car faster than ``moving_mps``): ``rate_rms_radps``, the RMS of its rate
+        (rad/s) over ``seconds`` of such ticks. Plans that jump from one to the next make the
+        controller weave, and it shows here; NaN when the car never explored."""
+        arrays = self.arrays()
+        t, steer, truth = arrays["t_s"], arrays["steering_rad"], arrays["truth"]
+        n = min(len(t), len(truth))
+        if n < 2:
+            return {"rate_rms_radps": math.nan, "seconds": 0.0}
+        dt = np.diff(t[:n])
+        rate = np.diff(steer[:n]) / np.where(dt > 0.0, dt, np.inf)
+        exploring = ~arrays["map_frozen"][1:n] & (truth[1:n, 3] > moving_mps) & (dt > 0.0)
+        if not exploring.any():
+            return {"rate_rms_radps": math.nan, "seconds": 0.0}
+        return {"rate_rms_radps": round(float(np.sqrt(np.mean(rate[exploring] ** 2))), 4),
+                "seconds": round(float(np.sum(dt[exploring])), 2)}
+
     def nees(self) -> dict[str, float | int]:
         """Pose NEES (x, y, yaw; 3 dof) per phase: the fraction of steps inside the two-sided
         95 % chi-square band while mapping (before the map froze) and while localising on the

@@ -504,6 +504,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
         "final_offset_m": _round(errors["final_offset_m"], 4),
         "map": map_eval,
         "nees": runner.log.nees(),
+        "steering_while_exploring": runner.log.steering_while_exploring(),
         "loop_closure": {
             "closed": bool(map_state is not None and map_state.loop_closed),
             "time_s": _round(runner.loop_closure_time_s),
