@@ -56,17 +56,31 @@ def boundary_walls(frame: SplineBaseframe, cones_xy_m: FloatArray, colours: NDAr
         pts, ss = xy[side][order], s[side][order]
         if len(pts) < 2:
             continue
-        a, b = pts[:-1], pts[1:]
-        step = b - a
-        length = np.hypot(step[:, 0], step[:, 1])
-        _, _, heading, _ = frame.sample(0.5 * (ss[:-1] + ss[1:]))
-        along = np.abs(wrap_angles(np.arctan2(step[:, 1], step[:, 0]) - heading))
-        keep = (length <= MAX_GAP_M) & (length > 1e-6) & (along <= MAX_ANGLE_RAD)
+        a, b = _row_links(frame, pts, ss)
         # the lane on the right: a left wall runs with the path, a right wall against it
-        seg = np.stack([a[keep], b[keep]], axis=1) if sign > 0 else np.stack(
-            [b[keep], a[keep]], axis=1)
-        walls.append(seg)
+        walls.append(np.stack([a, b], axis=1) if sign > 0 else np.stack([b, a], axis=1))
     return np.concatenate(walls) if walls else np.zeros((0, 2, 2))
+
+
+def _row_links(frame: SplineBaseframe, pts: FloatArray, s_m: FloatArray
+               ) -> tuple[FloatArray, FloatArray]:
+    """Each cone of one side (K, 2), in order along the path (``s_m``, (K,)), joined to the
+    next one on that continues its row: the first further along at most :data:`MAX_GAP_M` on
+    and at most :data:`MAX_ANGLE_RAD` from the path's direction. A cone of another stretch
+    of track on the same side (``hard:hairpins``: the next lane's row 3 m across the infield)
+    comes between two of the lane's cones in that order; joined to it, the row had no wall
+    there, and a manoeuvre left the lane through the gap. Returns the walls' ends (W, 2) x 2."""
+    step = pts[None, :, :] - pts[:, None, :]  # (K, K, 2): from cone i to cone j
+    length = np.hypot(step[..., 0], step[..., 1])
+    middle = np.clip(0.5 * (s_m[:, None] + s_m[None, :]), s_m[0], s_m[-1])
+    _, _, heading, _ = frame.sample(middle.ravel())
+    along = np.abs(wrap_angles(np.arctan2(step[..., 1], step[..., 0])
+                               - heading.reshape(middle.shape)))
+    later = np.arange(len(pts))[None, :] > np.arange(len(pts))[:, None]
+    ok = later & (length <= MAX_GAP_M) & (length > 1e-6) & (along <= MAX_ANGLE_RAD)
+    first = np.argmax(ok, axis=1)  # the nearest along the path of those that qualify
+    has = ok[np.arange(len(pts)), first]
+    return pts[has], pts[first[has]]
 
 
 def leaves_through(paths_xy_m: FloatArray, walls: FloatArray) -> NDArray[np.bool_]:

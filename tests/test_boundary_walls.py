@@ -62,6 +62,24 @@ def test_no_wall_from_a_wrong_colour_a_wide_gap_or_no_colours() -> None:
     assert len(boundary_walls(sparse_frame, sparse, sparse_colours, (0.0, 0.0))) == 0
 
 
+def test_a_row_of_the_next_lane_across_the_infield_leaves_no_gap_in_the_wall() -> None:
+    # hard:hairpins: the next lane's blue row 3 m across the infield from the lane's own, its
+    # cones between the lane's in order along the path. Out between two of the lane's cones
+    # is still leaving the lane (autocross seed 10: a manoeuvre 2.5 m to the left went out
+    # there and hit the next cone).
+    frame, cones, colours = _lane()
+    x = np.arange(-2.0, 30.0, 3.9)
+    beyond = np.stack([x, np.full_like(x, 4.5)], axis=1)
+    cones = np.vstack([cones, beyond])
+    colours = np.r_[colours, np.full(len(x), BLUE)]
+    walls = boundary_walls(frame, cones, colours, (0.0, 0.0))
+    across = np.abs(walls[:, 1, 1] - walls[:, 0, 1]) > 1.0
+    assert not np.any(across)  # no wall runs from one row to the other
+    x_path = np.linspace(0.0, 6.0, 25)
+    out = np.stack([x_path, np.linspace(0.0, 2.5, 25)], axis=1)  # out, into the infield
+    assert leaves_through(out[None], walls).tolist() == [True]
+
+
 def test_a_manoeuvre_out_between_the_cones_is_refused_and_never_the_stop_path() -> None:
     frame, cones, colours = _lane()
     config, car = PlannerConfig(), CarConfig()
