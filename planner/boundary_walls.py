@@ -11,9 +11,10 @@ a blue cone left of the path and a yellow one right of it (the colour and the si
 orange cone, of the start and finish gates, on the side it lies), each cone joined to the
 first one of the same side further along that continues its row: at most :data:`MAX_GAP_M` on
 and the line between them roughly along the path (a cone of the wrong colour, or of another
-stretch of track, makes no wall across the lane, nor a gap in the lane's own). Without colours there are no walls. A manoeuvre that leaves the lane through one
-(from its inside to its outside) is refused; one that comes back in is not (the car may stand
-over a boundary already).
+stretch of track, makes no wall across the lane, nor a gap in the lane's own). Without colours
+there are no walls. A manoeuvre that leaves the lane through one (from its inside to its
+outside) is refused; one that comes back in is not (the car may stand over a boundary
+already).
 """
 
 from __future__ import annotations
