@@ -52,6 +52,10 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.insert(7, ("in view while exploring", f"{result['explored_view_m']:.1f} m: at most "
                                                    f"{result['view_speed_mps']:.1f} m/s, "
                                                    f"{result['view_ceiling_ratio']:.2f}x at best"))
+    steering = summary.get("steering_while_exploring") or {}
+    if steering.get("seconds"):
+        rows.append(("steering rate exploring", f"{steering['rate_rms_radps']:.3f} rad/s RMS "
+                                                f"over {steering['seconds']:.1f} s"))
     if "estop" in summary:
         estop = summary["estop"]
         rows.append(("e-stop distance (m)", f"{_fmt(estop.get('stop_distance_m'))} "

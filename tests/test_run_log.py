@@ -1,4 +1,5 @@
-"""The run log's steering figure: how much the commanded steering moved while exploring."""
+"""The run log's steering figure: how much the commanded steering moved while exploring, and
+the summary table's row for it."""
 
 from __future__ import annotations
 
@@ -43,3 +44,14 @@ def test_no_exploring_gives_nan() -> None:
     figure = _log(np.sin(t), np.zeros_like(t), np.zeros_like(t, bool)).steering_while_exploring()
     assert math.isnan(figure["rate_rms_radps"]) and figure["seconds"] == 0.0
     assert math.isnan(RunLog().steering_while_exploring()["rate_rms_radps"])
+
+
+def test_the_summary_table_shows_the_steering_rate_while_exploring() -> None:
+    from orchestrator.summary_table import summary_rows
+
+    rows = dict(summary_rows({"steering_while_exploring": {"rate_rms_radps": 0.7746,
+                                                           "seconds": 24.82}}))
+    assert rows["steering rate exploring"] == "0.775 rad/s RMS over 24.8 s"
+    never = dict(summary_rows({"steering_while_exploring": {"rate_rms_radps": math.nan,
+                                                            "seconds": 0.0}}))
+    assert "steering rate exploring" not in never
