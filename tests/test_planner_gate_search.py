@@ -262,21 +262,3 @@ def test_a_car_off_the_middle_starts_its_path_at_the_gate_it_came_through() -> N
         assert len(path) >= 4, x_m
         assert abs(path[0, 1]) < 1e-9, (x_m, path[0])  # on the middle, not at the car
         assert -5.0 <= path[0, 0] - x_m <= 0.5, (x_m, path[0])  # the gate beside or behind
-
-
-def test_the_entry_gate_is_no_edge_to_an_uncoloured_cone_of_the_stretch_beside() -> None:
-    # The car's lane (3.5 m) and, 3 m across the infield, a stretch beside it; the lane's left
-    # row is mapped from x = 7.5 m on, and no cone but those is coloured yet (the start). The
-    # car's triangle is entered by a 6.5 m edge from the lane's right row to the stretch
-    # beside: its middle is 1.5 m left of the car, in the lane's side; the path must not start
-    # there (hard:corner-start: it started in the infield).
-    right = np.c_[np.arange(0.0, 25.0, 5.0), np.full(5, -HALF_WIDTH_M)]
-    left = np.c_[np.arange(7.5, 25.0, 5.0), np.full(4, HALF_WIDTH_M)]
-    beside = np.c_[np.arange(0.5, 25.0, 5.0), np.full(5, HALF_WIDTH_M + 3.0)]
-    cones = np.r_[right, left, beside]
-    colours = np.r_[np.full(5, UNKNOWN), np.full(4, BLUE), np.full(5, UNKNOWN)]
-    for x_m in (5.25, 5.5, 5.75):
-        path = exploration_path(cones, colours, (x_m, 0.0), 0.0,
-                                track_width_m=2.0 * HALF_WIDTH_M, behind_m=ENTRY_BEHIND_M)
-        assert len(path) >= 3
-        assert np.all(np.abs(path[:, 1]) < 0.2), (x_m, path[:3])  # along the lane's middle
