@@ -37,11 +37,6 @@ inner sides; two cones of one side stand closer in a tight bend."""
 MIN_ACROSS_M = MIN_GATE_M
 """Least track a gate leaves across the path's step through it (m): an edge crossed so
 obliquely that less is left is a boundary seen at a slant (cones of one side, colour unknown)."""
-ENTRY_BLIND_WIDTHS = 1.5
-"""The car's entry gate between two cones of unknown colour is at most this many nominal track
-widths long: longer, one of them is a cone of the stretch beside across an infield, not yet
-coloured (``hard:corner-start``: a 6.2 m edge started the path in the infield, 1.4 m aside of
-the car in its lane)."""
 ENTRY_AHEAD_M = 0.5
 """The car's entry gate (the one it came through into its triangle) may have its midpoint up
 to this far ahead of the car (m): a gate at a slant beside it (as the march's gate beside the
@@ -428,9 +423,6 @@ class _Search:
         gate = self._gate_cost(a, b, 0.5 * (self.xy[a] + self.xy[b]) - heading)
         if gate is None or self._across_m(a, b, yaw) < MIN_ACROSS_M:
             return None
-        unknown = all(int(self.col[i]) not in (BLUE, YELLOW) for i in (a, b))
-        if unknown and math.hypot(*(self.xy[a] - self.xy[b])) > ENTRY_BLIND_WIDTHS * self.width_m:
-            return None  # a cone of the stretch beside, not yet coloured: the gate spans both
         mid = gate[1]
         ahead = float((mid - start) @ heading)
         if not -behind_m <= ahead < ENTRY_AHEAD_M:
