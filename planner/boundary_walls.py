@@ -73,12 +73,12 @@ def _row_links(frame: SplineBaseframe, pts: FloatArray, s_m: FloatArray
     there, and a manoeuvre left the lane through the gap. Returns the walls' ends (W, 2) x 2."""
     step = pts[None, :, :] - pts[:, None, :]  # (K, K, 2): from cone i to cone j
     length = np.hypot(step[..., 0], step[..., 1])
-    middle = np.clip(0.5 * (s_m[:, None] + s_m[None, :]), s_m[0], s_m[-1])
-    _, _, heading, _ = frame.sample(middle.ravel())
-    along = np.abs(wrap_angles(np.arctan2(step[..., 1], step[..., 0])
-                               - heading.reshape(middle.shape)))
     later = np.arange(len(pts))[None, :] > np.arange(len(pts))[:, None]
-    ok = later & (length <= MAX_GAP_M) & (length > 1e-6) & (along <= MAX_ANGLE_RAD)
+    ok = later & (length <= MAX_GAP_M) & (length > 1e-6)
+    i, j = np.nonzero(ok)  # the frame is sampled only between cones near enough
+    _, _, heading, _ = frame.sample(0.5 * (s_m[i] + s_m[j]))
+    ok[i, j] = np.abs(wrap_angles(np.arctan2(step[i, j, 1], step[i, j, 0]) - heading)
+                      ) <= MAX_ANGLE_RAD
     first = np.argmax(ok, axis=1)  # the nearest along the path of those that qualify
     has = ok[np.arange(len(pts)), first]
     return pts[has], pts[first[has]]

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from common.messages import ConeColour
-from planner.gate_search import cone_in_gate, gate_search_path, has_colours
+from planner.gate_search import ENTRY_AHEAD_M, cone_in_gate, gate_search_path, has_colours
 
 FloatArray = NDArray[np.float64]
 
@@ -125,7 +125,7 @@ def exploration_path(
             if i is not None:
                 unused[i] = False
         step = target - point
-        if k == 0 and behind_m > 0.0 and float(step @ np.array([c, s])) < 0.5:
+        if k == 0 and behind_m > 0.0 and float(step @ np.array([c, s])) < ENTRY_AHEAD_M:
             points = [target.copy()]  # the path starts at the gate beside the car
             point = target
             continue

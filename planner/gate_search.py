@@ -38,9 +38,9 @@ MIN_ACROSS_M = MIN_GATE_M
 """Least track a gate leaves across the path's step through it (m): an edge crossed so
 obliquely that less is left is a boundary seen at a slant (cones of one side, colour unknown)."""
 ENTRY_AHEAD_M = 0.5
-"""The car's entry gate (the one it came through into its triangle) may have its midpoint up
-to this far ahead of the car (m): a gate at a slant beside it (as the march's gate beside the
-car, ``planner.exploration_path``)."""
+"""The car's entry gate (the one it came through into its triangle, or the march's first gate,
+``planner.exploration_path``) may have its midpoint up to this far ahead of the car (m): a gate
+at a slant beside it."""
 MAX_GATE_WIDTHS = 2.7
 """Longest edge that is a gate, in nominal track widths (a bend's diagonal gates are longer)."""
 BLIND_GATE_WIDTHS = 1.9

@@ -259,21 +259,24 @@ def freeze_needed_ms(drive_log: str) -> float:
     return min(timeouts_ms, default=FREEZE_MS)
 
 
+def _stale(source: str, age_s: float, seen_s: float, timeout_s: float) -> str:
+    """drive's log line when ``source`` turns stale (the format ``STALE_LINE`` reads)."""
+    return (f"WARNING sensors.manager: {source} stale: last reading {age_s:.3f} s ago; its "
+            f"reader proved {seen_s:.3f} s of silence (timeout {timeout_s:.3f} s) and was "
+            f"last back {age_s - seen_s:.3f} s ago")
+
+
 def test_stack_froze_ms_reads_a_starved_reader_not_a_silent_sensor() -> None:
-    starved = ("WARNING sensors.manager: imu stale: last reading 1.010 s ago; its reader proved "
-               "0.000 s of silence (timeout 0.100 s) and was last back 1.010 s ago")
-    silent = ("WARNING sensors.manager: gps stale: last reading 0.700 s ago; its reader proved "
-              "0.650 s of silence (timeout 0.500 s) and was last back 0.050 s ago")
+    starved = _stale("imu", 1.010, 0.000, 0.100)
+    silent = _stale("gps", 0.700, 0.650, 0.500)
     assert stack_froze_ms(starved + "\n" + silent) == pytest.approx(1010.0)
     assert stack_froze_ms(silent) == 0.0
     assert stack_froze_ms("") == 0.0
 
 
 def test_freeze_needed_ms_is_the_stale_sources_timeout() -> None:
-    imu = ("WARNING sensors.manager: imu stale: last reading 0.129 s ago; its reader proved "
-           "0.105 s of silence (timeout 0.100 s) and was last back 0.024 s ago")
-    lidar = ("WARNING sensors.manager: lidar stale: last reading 0.359 s ago; its reader "
-             "proved 0.303 s of silence (timeout 0.300 s) and was last back 0.056 s ago")
+    imu = _stale("imu", 0.129, 0.105, 0.100)
+    lidar = _stale("lidar", 0.359, 0.303, 0.300)
     assert freeze_needed_ms(lidar + "\n" + imu) == pytest.approx(100.0)
     assert freeze_needed_ms(lidar) == pytest.approx(300.0)
     assert freeze_needed_ms("WARNING controller.safety: stop (emergency): RES") == FREEZE_MS
