@@ -137,13 +137,23 @@ def check_sentence(sentence: bytes) -> str | None:
     return None
 
 
+_COORD = re.compile(r"[0-9]{3,}(\.[0-9]*)?")
+"""A coordinate field: unsigned ``[d]ddmm[.mmmm]`` (the hemisphere letter carries the sign)."""
+
+
 def parse_coord(value: str, hemisphere: str, degree_digits: int) -> float:
-    """``ddmm.mmmm`` / ``dddmm.mmmm`` and N/S/E/W to signed degrees; ValueError if malformed."""
-    if len(value) < degree_digits + 2 or hemisphere not in ("N", "S", "E", "W"):
+    """``ddmm.mmmm`` / ``dddmm.mmmm`` and N/S/E/W to signed degrees; ValueError if malformed.
+
+    As gpsd reads it, the degrees are what stands before the minutes' two integer digits, so a
+    longitude without its leading zero (``1131.000``) is still 11 deg 31'. A sign, an exponent
+    or anything but digits and one point is malformed: ``-0214.4,W`` is no longitude."""
+    value = value.strip()
+    if _COORD.fullmatch(value) is None or hemisphere not in ("N", "S", "E", "W"):
         raise ValueError(f"bad coordinate {value!r} {hemisphere!r}")
-    degrees = int(value[:degree_digits])
-    minutes = float(value[degree_digits:])
-    if not (math.isfinite(minutes) and 0.0 <= minutes < 60.0):
+    whole = value.split(".", 1)[0]
+    degrees = int(whole[:-2])
+    minutes = float(value[len(whole) - 2:])
+    if not 0.0 <= minutes < 60.0:
         raise ValueError(f"bad minutes in {value!r}")
     result = degrees + minutes / 60.0
     limit = 90.0 if degree_digits == 2 else 180.0

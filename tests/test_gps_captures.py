@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from sensors.cli import decode_nmea_file, strip_comment_lines
+from sensors.gpsd_agreement import gpsd_fixes
 from sensors.nmea import NmeaParser
 from sensors.nmea_framing import with_checksum
-from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 
 DATA = shared_path("nmea")
@@ -47,7 +47,7 @@ def test_captures_present() -> None:
 
 @pytest.mark.parametrize("capture", CAPTURES, ids=lambda p: p.name)
 def test_capture_matches_gpsd(capture: Path) -> None:
-    reference = gpsd_fixes(capture.with_name(capture.name + ".chk"))
+    reference = gpsd_fixes(capture.with_name(capture.name + ".chk").read_text(errors="replace"))
     assert reference, "answer key has no fixes"
     records = list(decode_nmea_file(capture))
     summary = records[-1]
@@ -64,7 +64,7 @@ def test_all_captures_match_gpsd_at_least_99_5_percent() -> None:
     """Issue 19.6: over all the shared captures together, >= 99.5 % of gpsd's fixes."""
     matched = total = 0
     for capture in CAPTURES:
-        reference = gpsd_fixes(capture.with_name(capture.name + ".chk"))
+        reference = gpsd_fixes(capture.with_name(capture.name + ".chk").read_text(errors="replace"))
         ours = list(decode_nmea_file(capture))[:-1]
         matched += sum(_matches(ref, ours) for ref in reference)
         total += len(reference)
@@ -156,3 +156,16 @@ def test_gsa_no_fix_mode_withdraws_the_fix() -> None:
     _, fixes = _feed("GPRMC,105026.80,V,,,,,,,081009,,W,N",
                      "GPGSA,A,3,29,30,9,,,,,,,,,,2.5,2.5,0.6")
     assert fixes == []
+
+
+def test_a_signed_coordinate_field_is_garbled_and_one_without_its_leading_zero_is_read() -> None:
+    """The hemisphere letter carries the sign: a Unicore UM981 GLL writing the longitude as
+    ``-0214.41467156,W`` (2 deg 14' W) is refused (gpsd reads it as 2.23 deg E; the old reader
+    as 1.76 deg E), while ``1131.000,E`` (no leading zero) is 11 deg 31' E, as gpsd reads it."""
+    parser, fixes = _feed("GNGLL,5327.03598945,N,-0214.41467156,W,130058.00,A,A")
+    assert fixes == [] and parser.rejects["garbled"] == 1
+    _, fixes = _feed("GPGLL,4807.038,N,1131.000,E,123519.00,A,A")
+    assert [(f.lat_deg, f.lon_deg) for f in fixes] == [pytest.approx((48.1173, 11.5166667))]
+    for bad in ("+4807.038", "48o7.038", "4.8e3", "4867.0"):
+        parser, fixes = _feed(f"GPGLL,{bad},N,01131.000,E,123519.00,A,A")
+        assert fixes == [] and parser.rejects["garbled"] == 1, bad

@@ -18,72 +18,28 @@ from pathlib import Path
 import pytest
 
 from sensors.cli import decode_nmea_file
+from sensors.gpsd_agreement import Agreement, agreement
 from sensors.nmea import NmeaParser
 from sensors.nmea_framing import split_address, with_checksum
-from support.gpsd_answers import gpsd_fixes
 from support.shared_data import shared_path
 
 DATA = shared_path("nmea")
 CAPTURES = sorted(DATA.glob("*.log"))
-TOL_DEG = 1e-6
 
 # -- gpsd's answer keys, per cycle ----------------------------------------------------------
 
 
-def _time_of_day_s(iso: str) -> float:
-    hh, mm, ss = iso[11:].rstrip("Z").split(":")
-    return int(hh) * 3600 + int(mm) * 60 + float(ss)
-
-
-def gpsd_cycles(chk: Path) -> dict[object, list[tuple[float, float]]]:
-    """gpsd's fixes by cycle: time of day (s, rounded to 1 ms) -> the positions (deg) it
-    reported for it; a report without a time (gpsd did not know the date yet) is a cycle
-    keyed by its own position."""
-    cycles: dict[object, list[tuple[float, float]]] = {}
-    for obj in gpsd_fixes(chk):
-        key: object = (round(_time_of_day_s(obj["time"]), 3) if "time" in obj
-                       else ("untimed", round(obj["lat"], 6), round(obj["lon"], 6)))
-        cycles.setdefault(key, []).append((obj["lat"], obj["lon"]))
-    return cycles
-
-
-def _at(fix: dict, positions: list[tuple[float, float]]) -> bool:
-    return fix["lat"] is not None and any(
-        abs(fix["lat"] - lat) <= TOL_DEG and abs(fix["lon"] - lon) <= TOL_DEG
-        for lat, lon in positions)
-
-
-def compare_with_gpsd(capture: Path) -> tuple[int, int, list[dict]]:
-    """(gpsd's cycles, those we report, our extra fixes) for one capture. An extra fix is one
-    matching no gpsd cycle, or a second fix for a cycle. A report gpsd made without a time
-    before it knew the date, at a position we report with a time, is that cycle's early
-    report, not a cycle of its own."""
-    cycles = gpsd_cycles(capture.with_name(capture.name + ".chk"))
-    ours = list(decode_nmea_file(capture))[:-1]
-    matched: set[object] = set()
-    extra: list[dict] = []
-    for fix in ours:
-        key = None
-        if fix["utc_time_s"] is not None:
-            timed = round(fix["utc_time_s"], 3)
-            if timed in cycles and _at(fix, cycles[timed]):
-                key = timed
-        if key is None:
-            untimed = [k for k in cycles if isinstance(k, tuple) and _at(fix, cycles[k])]
-            key = next((k for k in untimed if k not in matched), untimed[0] if untimed else None)
-        if key is None or (key in matched and not isinstance(key, tuple)):
-            extra.append(fix)
-        else:
-            matched.add(key)
-    early = [k for k in cycles if isinstance(k, tuple) and k not in matched
-             and any(_at(fix, cycles[k]) for fix in ours)]
-    return len(cycles) - len(early), len(matched), extra
+def compare_with_gpsd(capture: Path) -> Agreement:
+    """gpsd's cycles in the capture's answer key, those we report, and our extra fixes."""
+    reports = capture.with_name(capture.name + ".chk").read_text(errors="replace")
+    return agreement(reports, list(decode_nmea_file(capture))[:-1])
 
 
 @pytest.mark.shared_data("nmea")
 @pytest.mark.parametrize("capture", CAPTURES, ids=lambda p: p.name)
 def test_every_gpsd_cycle_once_and_nothing_else(capture: Path) -> None:
-    total, matched, extra = compare_with_gpsd(capture)
+    result = compare_with_gpsd(capture)
+    total, matched, extra = result.cycles, result.found, result.extra
     assert total > 0
     assert matched == total, f"{capture.name}: {matched}/{total} of gpsd's cycles"
     assert extra == [], f"{capture.name}: fixes gpsd did not report: {extra[:3]}"
