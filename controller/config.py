@@ -122,6 +122,12 @@ class ControllerConfig:
     that a lateral acceleration (m/s^2) needs, from a constant-radius cornering test (the
     defaults: the simulator's car, simulator/vehicle.py, measured so). The command is
     atan(L kappa) + table(v^2 |kappa|), interpolated, held beyond the last point."""
+    lock_hold_fraction: float = 1.0
+    """While the steering law asks for more than this fraction of the steering lock, the car
+    gains no speed (the speed reference is held at the car's speed): at the lock it cannot
+    follow its path, and more speed widens its circle through the understeer (EPFL's
+    autocross layout at the rules' 9 m hairpin: the car sped up from 2.2 to 4.6 m/s at the
+    lock, and its front corner swept into the outer cone). 0: off."""
     steer_along_course: bool = True
     """Steer relative to the direction of travel (yaw + sideslip atan(vy/vx)) rather than yaw."""
     max_steer_rate_radps: float = 3.0

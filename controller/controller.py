@@ -221,11 +221,19 @@ class Controller:
                         manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m), safety,
                         safety.late_plan_slow_decel_mps2)
                     cap_rate = late_plan_cap_rate_mps2(speed, v_cap, safety)
+                if self._at_lock(steer_target) and speed < v_cap:
+                    v_cap, cap_rate = max(speed, 0.0), 0.0
                 throttle, brake = self._speed_control(pose, path, speed, dt, v_cap, cap_rate)
         steer = steer_target if steer_target is not None else self.steer_limiter.value
         steer = clip(steer, -self.car.max_steer_rad, self.car.max_steer_rad)
         steer = self.steer_limiter.update(steer, dt)
         return self._safe_command(now_s, throttle, brake, steer, state)
+
+    def _at_lock(self, steer_target: float | None) -> bool:
+        """Whether the steering law asks for more than ``lock_hold_fraction`` of the lock."""
+        fraction = self.config.lock_hold_fraction
+        return (fraction > 0.0 and steer_target is not None
+                and abs(steer_target) > fraction * self.car.max_steer_rad)
 
     def _path_for(self, plan: Plan | None, now_s: float) -> PathRef | None:
         if plan is None or len(plan.manoeuvre) < 2:
