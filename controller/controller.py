@@ -101,6 +101,8 @@ class Controller:
         self._stop_t0 = math.nan
         self._stop_v0 = 0.0
         self._speed_mps = 0.0
+        self._lock_speed_mps = math.inf
+        """The speed (m/s) held while the steering law asks for the lock (inf: it does not)."""
         self.stop_speed_mps = math.nan
         """Speed (m/s) when the first stop was requested."""
         self.last_status: SafetyStatus | None = None
@@ -221,8 +223,13 @@ class Controller:
                         manoeuvre_ahead_m(plan.manoeuvre, pose.x_m, pose.y_m), safety,
                         safety.late_plan_slow_decel_mps2)
                     cap_rate = late_plan_cap_rate_mps2(speed, v_cap, safety)
-                if self._at_lock(steer_target) and speed < v_cap:
-                    v_cap, cap_rate = max(speed, 0.0), 0.0
+                if self._at_lock(steer_target):
+                    if not math.isfinite(self._lock_speed_mps):
+                        self._lock_speed_mps = max(speed, 0.0)
+                    if self._lock_speed_mps < v_cap:
+                        v_cap, cap_rate = self._lock_speed_mps, 0.0
+                else:
+                    self._lock_speed_mps = math.inf
                 throttle, brake = self._speed_control(pose, path, speed, dt, v_cap, cap_rate)
         steer = steer_target if steer_target is not None else self.steer_limiter.value
         steer = clip(steer, -self.car.max_steer_rad, self.car.max_steer_rad)
@@ -230,7 +237,9 @@ class Controller:
         return self._safe_command(now_s, throttle, brake, steer, state)
 
     def _at_lock(self, steer_target: float | None) -> bool:
-        """Whether the steering law asks for more than ``lock_hold_fraction`` of the lock."""
+        """Whether the steering law asks for more than ``lock_hold_fraction`` of the lock (the
+        speed is then held where it was when the law first asked for it,
+        ``_lock_speed_mps``)."""
         fraction = self.config.lock_hold_fraction
         return (fraction > 0.0 and steer_target is not None
                 and abs(steer_target) > fraction * self.car.max_steer_rad)
