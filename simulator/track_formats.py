@@ -1,9 +1,10 @@
 """Track files: the EUFS CSV and AMZ FSSIM YAML formats, read into a :class:`RawLayout`.
 
 EUFS CSV rows are ``tag,x,y,direction,x_variance,y_variance,xy_covariance`` (a ``car_start``
-row is the start pose); FSSIM YAML has ``cones_left`` / ``cones_right`` / ``cones_orange`` /
-``cones_orange_big`` and ``starting_pose_front_wing``. Real files vary (repeated header rows,
-no start pose, unordered cones); what cannot be read raises :class:`common.errors.TrackError`
+row is the start pose; EPFL's track database names its columns ``cone_type,X,Y,...``); FSSIM
+YAML has ``cones_left`` / ``cones_right`` / ``cones_orange`` / ``cones_orange_big`` and
+``starting_pose_front_wing``. Real files vary (repeated header rows, no start pose, unordered
+cones, a cone written twice); what cannot be read raises :class:`common.errors.TrackError`
 naming the file, the line and what is wrong.
 """
 
@@ -39,8 +40,22 @@ _EUFS_TAGS: dict[str, tuple[ConeColour, ConeSize]] = {
 _EUFS_NON_CONE_TAGS = {"car_start", "midpoint"}
 
 
+_HEADER_TAG_COLUMNS = {"tag", "cone_type"}
+"""A row starting with one of these is a header: EUFS and FSDS write ``tag,x,y,direction,...``,
+EPFL's track database ``cone_type,X,Y,Z,std_X,...``."""
+
+
+def _header_columns(path: Path, lineno: int, names: list[str]) -> tuple[int, int, int]:
+    """The columns of x, y and direction (-1: none) named by a header row."""
+    if "x" not in names or "y" not in names:
+        raise TrackError(f"{path}:{lineno}: a header without x and y columns: {names}")
+    return names.index("x"), names.index("y"), names.index("direction") if "direction" in names \
+        else -1
+
+
 def parse_eufs_csv(path: Path) -> RawLayout:
-    """Read an EUFS CSV track file (repeated headers and blank lines are skipped)."""
+    """Read an EUFS CSV track file (repeated headers and blank lines are skipped; the columns
+    are those its header names, ``tag,x,y,direction`` when it has none)."""
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
@@ -49,18 +64,20 @@ def parse_eufs_csv(path: Path) -> RawLayout:
     colours: list[int] = []
     sizes: list[int] = []
     start: tuple[float, float, float] | None = None
+    ix, iy, idir = 1, 2, 3
     for lineno, line in enumerate(text.splitlines(), 1):
         fields = [f.strip() for f in line.split(",")]
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         tag = fields[0].lower()
-        if tag == "tag":
+        if tag in _HEADER_TAG_COLUMNS:
+            ix, iy, idir = _header_columns(path, lineno, [f.lower() for f in fields])
             continue
-        if len(fields) < 3:
+        if len(fields) <= max(ix, iy):
             raise TrackError(f"{path}:{lineno}: expected 'tag,x,y,...', got {line.strip()!r}")
         try:
-            x, y = float(fields[1]), float(fields[2])
-            direction = float(fields[3]) if len(fields) > 3 and fields[3] else 0.0
+            x, y = float(fields[ix]), float(fields[iy])
+            direction = float(fields[idir]) if 0 <= idir < len(fields) and fields[idir] else 0.0
         except ValueError:
             raise TrackError(f"{path}:{lineno}: x/y/direction not numbers in"
                              f" {line.strip()!r}") from None

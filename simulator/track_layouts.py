@@ -169,8 +169,34 @@ def _classify(raw: RawLayout) -> str:
     return "trackdrive"
 
 
+DUPLICATE_CONE_M = 0.1
+"""Two cones of one colour whose centres are nearer than this are one cone written twice (two
+real cones' bases, 0.23 m across, cannot stand so near): layouts built from lines and arcs
+repeat the cone where two pieces meet (EPFL's track database)."""
+
+
+def merge_duplicate_cones(raw: RawLayout) -> RawLayout:
+    """``raw`` with each cone written twice (:data:`DUPLICATE_CONE_M`) kept once, in file
+    order, and how many were dropped logged; the layout itself when there are none."""
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(raw.xy).query_pairs(DUPLICATE_CONE_M, output_type="ndarray")
+    same = pairs[raw.colours[pairs[:, 0]] == raw.colours[pairs[:, 1]]] if len(pairs) else pairs
+    if not len(same):
+        return raw
+    keep = np.ones(len(raw.xy), bool)
+    keep[np.maximum(same[:, 0], same[:, 1])] = False
+    log.warning("%s: %d cones written twice (same colour, centres under %.2f m apart) kept once",
+                raw.source, int((~keep).sum()), DUPLICATE_CONE_M)
+    hint = raw.side_hint[keep] if raw.side_hint is not None else None
+    return RawLayout(raw.name, raw.source, raw.xy[keep], raw.colours[keep], raw.sizes[keep],
+                     raw.start_pose, hint)
+
+
 def build_track(raw: RawLayout) -> Track:
-    """Turn cones in a file frame into a world-frame :class:`Track` (kind auto-detected)."""
+    """Turn cones in a file frame into a world-frame :class:`Track` (kind auto-detected; a
+    cone written twice is kept once)."""
+    raw = merge_duplicate_cones(raw)
     if len(raw.xy) < 4:
         raise TrackError(f"{raw.source}: only {len(raw.xy)} cones, a track needs at least 4")
     kind = _classify(raw)

@@ -24,15 +24,17 @@ pytestmark = pytest.mark.shared_data("tracks")
 
 
 def _expected_counts(path: Path) -> dict[int, int]:
-    """Cone counts per colour, read straight from the file."""
-    counts: dict[int, int] = {}
+    """Cone counts per colour, read straight from the file; a cone written twice at the very
+    same place (FSG.yaml's first cone repeated at the end of its row) counts once."""
+    seen: set[tuple[int, float, float]] = set()
     if path.suffix == ".csv":
         names = {"blue": ConeColour.BLUE, "yellow": ConeColour.YELLOW,
                  "orange": ConeColour.ORANGE, "big_orange": ConeColour.BIG_ORANGE}
         for line in path.read_text().splitlines():
-            tag = line.split(",")[0].strip()
-            if tag in names:
-                counts[names[tag]] = counts.get(names[tag], 0) + 1
+            fields = line.split(",")
+            if fields[0].strip() in names:
+                seen.add((names[fields[0].strip()], round(float(fields[1]), 3),
+                          round(float(fields[2]), 3)))
     else:
         import yaml
 
@@ -40,8 +42,11 @@ def _expected_counts(path: Path) -> dict[int, int]:
         for key, colour in (("cones_left", ConeColour.BLUE), ("cones_right", ConeColour.YELLOW),
                             ("cones_orange", ConeColour.ORANGE),
                             ("cones_orange_big", ConeColour.BIG_ORANGE)):
-            if data.get(key):
-                counts[colour] = len(data[key])
+            for x, y, *_ in data.get(key) or []:
+                seen.add((colour, round(float(x), 3), round(float(y), 3)))
+    counts: dict[int, int] = {}
+    for colour, _, _ in seen:
+        counts[colour] = counts.get(colour, 0) + 1
     return counts
 
 
@@ -198,6 +203,42 @@ def test_missing_start_pose_and_repeated_headers(tmp_path: Path) -> None:
     assert track.lap_length_m == pytest.approx(ref.lap_length_m, rel=0.03)
     # the car is put on the centreline before the start line, facing along the track
     assert 0.0 < track.start_line_s_m < 10.0
+
+
+def test_a_cone_written_twice_is_kept_once(tmp_path: Path,
+                                            caplog: pytest.LogCaptureFixture) -> None:
+    """Layouts built from lines and arcs repeat the cone where two pieces meet (EPFL's track
+    database: 18 of 75 in its autocross layout; FSG.yaml repeats its first cone): one cone of a
+    colour within 0.1 m of another is the same cone. A cone of another colour there is kept."""
+    src = (DATA / "eufs" / "small_track.csv").read_text().splitlines()
+    blue = next(r for r in src if r.startswith("blue,"))
+    _, x, y, *rest = blue.split(",")
+    near = ",".join(["blue", str(float(x) + 0.05), y, *rest])
+    other = ",".join(["yellow", x, y, *rest])
+    path = tmp_path / "twice.csv"
+    path.write_text("\n".join([*src, blue, near, other]) + "\n")
+    ref = load_track(str(DATA / "eufs" / "small_track.csv"))
+    with caplog.at_level("WARNING"):
+        track = load_track(str(path))
+    assert len(track.cones_xy_m) == len(ref.cones_xy_m) + 1
+    assert "2 cones written twice" in caplog.text
+
+
+def test_columns_are_read_by_the_names_in_the_header(tmp_path: Path) -> None:
+    """EPFL's track database writes ``cone_type,X,Y,Z,std_X,...``; the columns are found by
+    their names (here in another order), and a header without x and y is refused."""
+    src = (DATA / "eufs" / "small_track.csv").read_text().splitlines()
+    rows = [r.split(",") for r in src[1:] if not r.startswith("car_start")]
+    path = tmp_path / "epfl.csv"
+    path.write_text("cone_type,Z,Y,X,std_X\n"
+                    + "".join(f"{r[0]},0.0,{r[2]},{r[1]},0.0\n" for r in rows))
+    ref = load_track(str(DATA / "eufs" / "small_track.csv"))
+    track = load_track(str(path))
+    assert len(track.cones_xy_m) == len(ref.cones_xy_m)
+    assert track.lap_length_m == pytest.approx(ref.lap_length_m, rel=0.03)
+    path.write_text("cone_type,X,Z\nblue,1.0,2.0\n")
+    with pytest.raises(TrackError, match="without x and y"):
+        load_track(str(path))
 
 
 @pytest.mark.parametrize("content, message", [
