@@ -47,6 +47,9 @@ START_BEHIND_LINE_M = 6.0
 """Where a car is put when the file has no start pose: this far before the start line."""
 CENTRELINE_STEP_M = 0.5
 """Spacing of the centreline samples (m)."""
+CHAIN_GAP_M = 12.0
+"""The longest gap (m) between neighbours of a boundary's row of cones, its closing gap
+included (the start gate's big orange cones stand in the rows there)."""
 
 
 @dataclass
@@ -63,7 +66,7 @@ class RawLayout:
 
 
 def _order_chain(points: FloatArray, start_xy: FloatArray, start_dir: FloatArray | None,
-                 max_gap_m: float = 12.0) -> list[int]:
+                 max_gap_m: float = CHAIN_GAP_M) -> list[int]:
     """Order cones into a chain: start at the cone nearest ``start_xy``, then repeatedly the
     nearest unvisited cone that is not behind the current direction of travel."""
     n = len(points)
@@ -277,6 +280,12 @@ def _build_trackdrive(raw: RawLayout) -> Track:
         if len(order) < len(pts):
             log.warning("%s: %d %s cones left out of the boundary chain", raw.source,
                         len(pts) - len(order), side)
+        ends_m = float(np.hypot(*(pts[order[-1]] - pts[order[0]])))
+        if ends_m > CHAIN_GAP_M:
+            raise TrackError(
+                f"{raw.source}: not a closed loop: the {side} cones' row ends {ends_m:.1f} m from"
+                f" where it starts (a closed track's rows close within {CHAIN_GAP_M:.0f} m);"
+                " trackdrive and autocross need a closed track")
     left, right = lpts[lorder], rpts[rorder]
     centre = _loop_centreline(left, right)
     # orient: blue on the left

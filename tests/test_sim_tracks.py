@@ -224,6 +224,22 @@ def test_a_cone_written_twice_is_kept_once(tmp_path: Path,
     assert "2 cones written twice" in caplog.text
 
 
+def test_an_open_layout_is_refused_as_not_a_closed_loop(tmp_path: Path) -> None:
+    """A U of two lanes and one bend (EPFL's VSV layouts): the rows end 12 and 18 m from where
+    they start; autocross and trackdrive need a closed track, and the error says so instead of
+    the width the missing side would give."""
+    rows = []
+    for x_m, tag in ((-1.5, "blue"), (1.5, "yellow"), (-13.5, "blue"), (-16.5, "yellow")):
+        rows += [f"{tag},{x_m},{y_m}" for y_m in np.arange(0.0, 30.1, 3.75)]
+    for a in np.linspace(0.0, math.pi, 7)[1:-1]:
+        rows += [f"blue,{-7.5 + 6.0 * math.cos(a)},{30.0 + 6.0 * math.sin(a)}",
+                 f"yellow,{-7.5 + 9.0 * math.cos(a)},{30.0 + 9.0 * math.sin(a)}"]
+    path = tmp_path / "u.csv"
+    path.write_text("tag,x,y\n" + "\n".join(rows) + "\n")
+    with pytest.raises(TrackError, match="not a closed loop: the (left|right) cones' row ends"):
+        load_track(str(path))
+
+
 def test_columns_are_read_by_the_names_in_the_header(tmp_path: Path) -> None:
     """EPFL's track database writes ``cone_type,X,Y,Z,std_X,...``; the columns are found by
     their names (here in another order), and a header without x and y is refused."""
