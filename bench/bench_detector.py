@@ -29,7 +29,7 @@ from sensors.lidar_parser import LidarParser
 from sensors.velodyne import RING_ELEVATION_DEG
 from simulator.lidar_model import LidarModel
 
-HELP = "LiDAR cone detection: median ms per full sweep (~29 000 points)"
+HELP = "LiDAR cone detection: median ms per full 29 000-point sweep"
 RADIUS_M = 15.0
 
 

@@ -33,7 +33,7 @@ from bench.fuzz_targets import Target, make_targets
 from common.cli_types import non_negative_int, positive_int
 from orchestrator.config import AppConfig
 
-HELP = "mutated real captures through every parser; uncaught exceptions per parser (target 0)"
+HELP = "mutated real captures through every parser: uncaught exceptions"
 PARSERS = tuple(SEEDS)
 SHOWN_CRASHES = 3
 """Distinct crashes printed in full per parser."""

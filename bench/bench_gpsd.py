@@ -22,7 +22,7 @@ from orchestrator.progress import Progress
 from sensors.cli import decode_nmea_file
 from sensors.gpsd_agreement import Agreement, GpsfakeError, agreement, gpsfake_reports
 
-HELP = "NMEA captures against gpsd: its fixes per receiver cycle we report, and extra fixes"
+HELP = "NMEA captures against gpsd: cycles found, extra fixes"
 
 log = logging.getLogger(__name__)
 
