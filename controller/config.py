@@ -128,6 +128,10 @@ class ControllerConfig:
     follow its path, and more speed widens its circle through the understeer (EPFL's
     autocross layout at the rules' 9 m hairpin: the car sped up from 2.2 to 4.6 m/s at the
     lock, and its front corner swept into the outer cone). 0: off."""
+    lock_hold_min_speed_mps: float = 2.0
+    """The speed held at the lock is at least this (m/s): at walking pace the understeer is
+    nil and the car turns as the kinematic bicycle (the planner's ``crawl_speed_mps``); a car
+    that reached the lock at a standstill (a start in a hairpin) must still move."""
     steer_along_course: bool = True
     """Steer relative to the direction of travel (yaw + sideslip atan(vy/vx)) rather than yaw."""
     max_steer_rate_radps: float = 3.0

@@ -225,7 +225,7 @@ class Controller:
                     cap_rate = late_plan_cap_rate_mps2(speed, v_cap, safety)
                 if self._at_lock(steer_target):
                     if not math.isfinite(self._lock_speed_mps):
-                        self._lock_speed_mps = max(speed, 0.0)
+                        self._lock_speed_mps = max(speed, cfg.lock_hold_min_speed_mps)
                     if self._lock_speed_mps < v_cap:
                         v_cap, cap_rate = self._lock_speed_mps, 0.0
                 else:

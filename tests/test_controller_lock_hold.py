@@ -40,13 +40,13 @@ def _circle_plan(t_s: float, radius_m: float) -> Plan:
                 PATH_SPEED_MPS, chosen_index=0)
 
 
-def _drive(config: AppConfig, radius_m: float, seconds: float = 3.0
-           ) -> tuple[float, float, float]:
+def _drive(config: AppConfig, radius_m: float, seconds: float = 3.0,
+           start_speed_mps: float = START_SPEED_MPS) -> tuple[float, float, float]:
     """(highest speed, highest |steering|, farthest from the circle (m)) over ``seconds`` on
     the circle from 2 m/s, or until the supervisor stops the car."""
     ctrl = driving_controller(config)
     vehicle = Vehicle(config.car)
-    vehicle.state.vx_mps = START_SPEED_MPS
+    vehicle.state.vx_mps = start_speed_mps
     plan = _circle_plan(0.0, radius_m)
     top_speed = top_steer = off_m = 0.0
     for k in range(int(round(seconds / DT_S))):
@@ -92,6 +92,16 @@ def test_without_the_rule_the_car_speeds_up_at_the_lock_and_runs_wide() -> None:
     top_speed, _, off_m = _drive(config, RADIUS_M)
     assert top_speed > START_SPEED_MPS + 1.0
     assert off_m > 2.0
+
+
+def test_a_car_at_a_standstill_at_the_lock_still_moves() -> None:
+    """A start in a hairpin tighter than the lock: the speed held is at least
+    ``lock_hold_min_speed_mps`` (the kinematic bicycle's walking pace), not the standstill."""
+    config = AppConfig()
+    floor_mps = config.controller.lock_hold_min_speed_mps
+    top_speed, top_steer, _ = _drive(config, RADIUS_M, start_speed_mps=0.0)
+    assert top_steer == pytest.approx(config.car.max_steer_rad)
+    assert 0.8 * floor_mps < top_speed <= floor_mps + 0.2  # the speed loop's overshoot
 
 
 def test_a_circle_within_the_lock_is_driven_up_to_its_speed() -> None:
