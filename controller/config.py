@@ -124,10 +124,11 @@ class ControllerConfig:
     atan(L kappa) + table(v^2 |kappa|), interpolated, held beyond the last point."""
     lock_hold_fraction: float = 1.0
     """While the steering law asks for more than this fraction of the steering lock, the car
-    gains no speed (the speed reference is held at the car's speed): at the lock it cannot
-    follow its path, and more speed widens its circle through the understeer (EPFL's
-    autocross layout at the rules' 9 m hairpin: the car sped up from 2.2 to 4.6 m/s at the
-    lock, and its front corner swept into the outer cone). 0: off."""
+    gains no speed (the speed reference is held at the speed it had when the law first asked
+    for it, at least ``lock_hold_min_speed_mps``): at the lock it cannot follow its path, and
+    more speed widens its circle through the understeer (EPFL's autocross layout at the
+    rules' 9 m hairpin: the car sped up from 2.2 to 4.6 m/s at the lock, and its front corner
+    swept into the outer cone). 0: off."""
     lock_hold_min_speed_mps: float = 2.0
     """The speed held at the lock is at least this (m/s): at walking pace the understeer is
     nil and the car turns as the kinematic bicycle (the planner's ``crawl_speed_mps``); a car
