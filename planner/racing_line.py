@@ -352,9 +352,14 @@ def racing_line(
         return track.centre_xy_m.copy(), np.zeros(len(track))
     t_best, alpha, weight = best
     line = track.centre_xy_m + alpha[:, None] * normals
+    centre = track.centre_xy_m
+    t_centre = line_lap_time_s(centre, track.closed, limits, speed_cap)
     logger.info("racing line: %.2f s (centreline %.2f s), length weight %.2f, max |kappa| "
-                "%.3f -> %.3f 1/m", t_best, line_lap_time_s(track.centre_xy_m, track.closed,
-                                                              limits, speed_cap),
-                weight, float(np.max(np.abs(kappa))),
+                "%.3f -> %.3f 1/m", t_best, t_centre, weight, float(np.max(np.abs(kappa))),
                 float(np.max(np.abs(menger_curvature(line, track.closed)))))
+    if t_centre <= t_best:
+        # the room is narrow and jagged (the boundaries' chords between cones): the line zigzags
+        logger.warning("racing line: slower than the centreline (%.2f s against %.2f s): the "
+                       "centreline", t_best, t_centre)
+        return centre.copy(), np.zeros(len(track))
     return line, alpha

@@ -110,6 +110,49 @@ def test_racing_line_stays_in_its_bounds_and_is_faster_than_the_centreline(name:
     assert np.max(np.abs(menger_curvature(line, True))) < np.max(np.abs(model.curvature_1pm))
 
 
+def _oval(arc_cones: int, straight_m: float = 47.0, radius_m: float = 7.5,
+          half_width_m: float = 1.5, spacing_m: float = 5.0):
+    """EPFL's 21_05_2023 layout's shape: two straights joined by half circles of ``arc_cones``
+    cones a side, a 3 m lane; cones (N, 2), colours (N,) and the centre line."""
+    rows = []
+    for r in (radius_m - half_width_m, radius_m + half_width_m, radius_m):
+        n = int(round(straight_m / spacing_m))
+        arc = np.linspace(-math.pi / 2, math.pi / 2, arc_cones, endpoint=False)
+        rows.append(np.r_[
+            np.c_[np.linspace(0.0, straight_m, n, endpoint=False), np.full(n, -r)],
+            np.c_[straight_m + r * np.cos(arc), r * np.sin(arc)],
+            np.c_[np.linspace(straight_m, 0.0, n, endpoint=False), np.full(n, r)],
+            np.c_[-r * np.cos(arc), -r * np.sin(arc)]])
+    inner, outer, centre = rows
+    return (np.r_[inner, outer], np.r_[np.full(len(inner), BLUE), np.full(len(outer), YELLOW)],
+            centre)
+
+
+def test_a_racing_line_slower_than_the_centreline_gives_way_to_it() -> None:
+    """A 3 m lane round half circles of six cones a side: the car's body and margins leave a
+    room a few centimetres wide that zigzags with the chords between the cones, and the line
+    of least curvature inside it is 1.2 s slower than the centre line (kinks of 0.39 1/m on
+    EPFL's layout: its mapped laps were 1.53x the friction limit, 1.16x on the centre line).
+    The centre line is then the line."""
+    cones, colours, guide = _oval(arc_cones=6)
+    model = track_from_cones(cones, colours, guide, True)
+    car = CarConfig()
+    limits = SpeedLimits.from_car(car, 0.7, 18.0, lateral_factor=0.6)
+    line, offsets = racing_line(model, half_width_m=car.width_m / 2,
+                                front_m=car.length_m - car.rear_overhang_m, clearance_m=0.55,
+                                limits=limits)
+    t_centre = line_lap_time_s(model.centre_xy_m, True, limits)
+    assert line_lap_time_s(line, True, limits) <= t_centre
+    assert np.all(offsets == 0.0)
+    # with room enough (eight cones a side round the half circles) the line is taken
+    model = track_from_cones(*_oval(arc_cones=8), True)
+    line, offsets = racing_line(model, half_width_m=car.width_m / 2,
+                                front_m=car.length_m - car.rear_overhang_m, clearance_m=0.55,
+                                limits=limits)
+    assert np.any(offsets != 0.0)
+    assert line_lap_time_s(line, True, limits) < line_lap_time_s(model.centre_xy_m, True, limits)
+
+
 def _tight_circle():
     """SmallCircle's size (a community layout): cones 1.5 m either side of a 3.2 m circle,
     0.7 m apart; the car's body and margins (1.25 m inside, 1.85 m outside) need 3.1 m."""
