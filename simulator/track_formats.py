@@ -49,8 +49,8 @@ def _header_columns(path: Path, lineno: int, names: list[str]) -> tuple[int, int
     """The columns of x, y and direction (-1: none) named by a header row."""
     if "x" not in names or "y" not in names:
         raise TrackError(f"{path}:{lineno}: a header without x and y columns: {names}")
-    return names.index("x"), names.index("y"), names.index("direction") if "direction" in names \
-        else -1
+    direction = names.index("direction") if "direction" in names else -1
+    return names.index("x"), names.index("y"), direction
 
 
 def parse_eufs_csv(path: Path) -> RawLayout:
