@@ -346,8 +346,7 @@ class PathPlanner:
             if len(pts) < 3:  # a gate or two: from the car itself
                 pts = exploration_path(map_state.cones.xy_m, map_state.cones.colour,
                                        (pose.x_m, pose.y_m), pose.yaw_rad,
-                                       track_width_m=c.nominal_track_width_m,
-                                       driven_xy_m=driven)
+                                       track_width_m=c.nominal_track_width_m, driven_xy_m=driven)
             if len(pts) == 2:  # one gate: a straight line to it
                 pts = pts[0] + np.linspace(0.0, 1.0, 4)[:, None] * (pts[1] - pts[0])
         if len(pts) < 3:
@@ -525,9 +524,10 @@ class PathPlanner:
                 s0, KnownPathMission.scale(frame.length_m, self.known.path), pose.speed_mps):
             self.lap = 1  # the mission's one "lap": the controller stops the car, finished
         cones = map_state.cones.xy_m
-        if len(cones):
-            near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)
-            cones = cones[near < self.config.cone_search_radius_m]
+        near = np.hypot(cones[:, 0] - pose.x_m, cones[:, 1] - pose.y_m)
+        # a lap mapped: the camera's tentative cones (ids < 0) add only their range errors
+        seen = (map_state.cones.ids >= 0) | (not frame.closed)
+        cones = cones[(near < self.config.cone_search_radius_m) & seen]
         speed = pose.speed_mps
         walls = boundary_walls(frame, map_state.cones.xy_m, map_state.cones.colour,
                                (pose.x_m, pose.y_m)) if self.exploring else None
