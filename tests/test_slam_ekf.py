@@ -156,6 +156,28 @@ def test_global_assignment_and_gating() -> None:
     assert slam.stats["cones_ambiguous"] == before + 1 and len(slam.preliminary_xy_m) == 0
 
 
+def _beside_a_small_landmark(size: ConeSize) -> EkfSlam:
+    """A filter with one landmark seen as a small cone, after two sweeps that also see a cone
+    of ``size`` 0.7 m beside it."""
+    slam = _filter_with_landmarks(np.array([[8.0, 2.0]]), 0.02)
+    assert slam.update_cones([_det(8.0, 2.0)], 0.0) == 1  # its size: small, by vote
+    for t_s in (0.1, 0.2):
+        slam.update_cones([_det(8.0, 2.0), _det(8.0, 2.7, size)], t_s)
+    return slam
+
+
+def test_a_big_cone_beside_a_small_landmark_is_a_cone_of_its_own() -> None:
+    """The start line's big cones stand 0.6-0.9 m from the lane's small ones (EPFL's layouts).
+    A detection that near a landmark of the other size class is a new cone; one of the same
+    size stays ambiguous (``new_landmark_min_distance_m``)."""
+    big = _beside_a_small_landmark(ConeSize.LARGE)
+    assert big.n_landmarks == 2
+    assert np.allclose(big.landmarks_xy_m[1], [8.0, 2.7], atol=0.05)
+    small = _beside_a_small_landmark(ConeSize.SMALL)
+    assert small.n_landmarks == 1
+    assert small.stats["cones_ambiguous"] == 2
+
+
 def test_landmarks_unseen_for_long_are_not_associated() -> None:
     slam = _filter_with_landmarks(np.array([[5.0, 0.0]]), 0.02)
     slam.odometer_m = slam.cfg.unseen_travel_m + 1.0

@@ -17,11 +17,14 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
+from common.messages import ConeSize
 from mapper.chi2 import chi2_ppf
 from mapper.config import SlamConfig
 from mapper.slam.ekf import SlamEkf
 from mapper.slam.landmarks import BIG
 from mapper.slam.models import FloatArray, inv2, observation_model
+
+UNKNOWN_SIZE = int(ConeSize.UNKNOWN)
 
 
 @dataclass(frozen=True)
@@ -43,9 +46,13 @@ class Associator:
         self.new_gate = chi2_ppf(cfg.new_landmark_probability, 2)
 
     def associate(self, ekf: SlamEkf, z: FloatArray, r: FloatArray,
-                  active: NDArray[np.bool_]) -> Association:
+                  active: NDArray[np.bool_], sizes: NDArray[np.int64] | None = None,
+                  landmark_sizes: NDArray[np.int64] | None = None) -> Association:
         """Detections ``z`` (k, 2) in the vehicle frame at the filter's time with noise ``r``
-        (k, 2, 2), against the landmarks marked ``active`` (N,) within the LiDAR's reach."""
+        (k, 2, 2), against the landmarks marked ``active`` (N,) within the LiDAR's reach.
+        ``sizes`` (k,) and ``landmark_sizes`` (N,) (:class:`~common.messages.ConeSize`): a
+        detection beside a landmark of the other size class is ambiguous only within
+        ``new_landmark_min_distance_other_size_m``."""
         c = self.cfg
         n_det = z.shape[0]
         assigned_det = np.zeros(0, np.int64)
@@ -69,7 +76,12 @@ class Associator:
                 d2 = np.einsum("kmi,kmij,kmj->km", y, inv2(s_pair), y)
                 near_any = np.min(d2, axis=1) <= self.new_gate
                 eucl = np.hypot(y[..., 0], y[..., 1])
-                near_any |= np.min(eucl, axis=1) < c.new_landmark_min_distance_m
+                floor = np.full(eucl.shape, c.new_landmark_min_distance_m)
+                if sizes is not None and landmark_sizes is not None:
+                    mine, theirs = sizes[:, None], landmark_sizes[cand][None, :]
+                    other = (mine != UNKNOWN_SIZE) & (theirs != UNKNOWN_SIZE) & (mine != theirs)
+                    floor[other] = c.new_landmark_min_distance_other_size_m
+                near_any |= np.any(eucl < floor, axis=1)
                 cost = np.where(d2 <= self.gate, d2, BIG)
                 rows, cols = linear_sum_assignment(cost)
                 good = cost[rows, cols] < BIG

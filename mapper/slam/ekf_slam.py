@@ -435,7 +435,8 @@ class EkfSlam:
         r_all = lidar_noise(z, extra, self.car.lidar_x_m, c)
 
         n_det = z.shape[0]
-        found = self.associator.associate(self.ekf, z, r_all, self._active_mask())
+        found = self.associator.associate(self.ekf, z, r_all, self._active_mask(), sizes,
+                                          self.book.sizes())
         assigned_det, assigned_lm = found.detections, found.landmarks
         if assigned_det.size:
             self.ekf.update_landmarks(z[assigned_det], r_all[assigned_det], assigned_lm)
