@@ -5,8 +5,10 @@ under the predicted measurement covariance ``S = H P H^T + R``: pairs outside th
 gate (``gate_probability``, 2 dof) are impossible; the sweep's detections are then assigned
 all at once (``scipy.optimize.linear_sum_assignment``), beyond the seed's nearest neighbour
 (its future work, 6.2.4). A detection close to any landmark (inside the wider
-``new_landmark_probability`` gate, or nearer than ``new_landmark_min_distance_m``) but not
-assigned is ambiguous: it never becomes a new landmark.
+``new_landmark_probability`` gate, or nearer than ``new_landmark_min_distance_m``; than
+``new_landmark_min_distance_other_size_m`` to a landmark of the other size class, as a big cone
+stands by a small one at the start line) but not assigned is ambiguous: it never becomes a new
+landmark.
 """
 
 from __future__ import annotations
