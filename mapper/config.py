@@ -298,8 +298,8 @@ class SlamConfig:
     """The same for a landmark of the other size class (a big cone beside a small one): the
     start line's big cones stand 0.6-0.9 m from the lane's small ones on EPFL's layouts, and
     with the 1 m floor a small cone mapped first hid its big neighbour when the car came back
-    to the start, so the loop never closed there (EPFL track_2, seed 4: closed a lap later on
-    a map holding the track twice)."""
+    to the start, and the loop did not close on that return (EPFL track_2, seed 4: it closed a
+    lap later, on a map holding the track twice)."""
     preliminary_gate_m: float = 0.5
     """Seed 5.3.3: a candidate enters the filter when seen again this close in the next sweep."""
     unseen_travel_m: float = 25.0
