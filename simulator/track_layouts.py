@@ -23,6 +23,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from common.conventions import wrap_angle
 from common.errors import TrackError
@@ -181,8 +182,6 @@ repeat the cone where two pieces meet (EPFL's track database)."""
 def merge_duplicate_cones(raw: RawLayout) -> RawLayout:
     """``raw`` with each cone written twice (:data:`DUPLICATE_CONE_M`) kept once, in file
     order, and how many were dropped logged; the layout itself when there are none."""
-    from scipy.spatial import cKDTree
-
     pairs = cKDTree(raw.xy).query_pairs(DUPLICATE_CONE_M, output_type="ndarray")
     same = pairs[raw.colours[pairs[:, 0]] == raw.colours[pairs[:, 1]]] if len(pairs) else pairs
     if not len(same):
