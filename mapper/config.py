@@ -307,6 +307,13 @@ class SlamConfig:
     associate_all_after_closure: bool = True
     min_lap_distance_m: float = 80.0
     """Loop closure is tried only after this travel distance."""
+    seen_through_min_lap_m: float = 40.0
+    """On a lap so short that the start's big cones never go unseen for ``unseen_travel_m``
+    (EPFL's 74 m autocross: they stay in view all the lap) they are never new nor old, and the
+    pattern match never closes the loop; the cones out of view meanwhile are mapped again every
+    lap. Such a loop closes as the car passes the very big cones it mapped at the start (mapped
+    at least this far (m) ago, seen within ``unseen_travel_m``, passed on its line of travel,
+    heading as it started); the backward sweep then merges the cones mapped twice."""
     big_cone_search_m: float = 6.0
     """Largest drift (m) at which old and new big orange cones are still paired."""
     big_cone_pattern_tolerance_m: float = 0.6

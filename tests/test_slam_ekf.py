@@ -284,6 +284,60 @@ def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> No
     assert slam.n_landmarks == 5
 
 
+def _short_lap(car_x_m: float, odometer_m: float, car_yaw_rad: float = 0.0) -> EkfSlam:
+    """A filter on a lap so short that the start's four big cones (mapped at the start) were
+    seen all the way round; a cone 20 m down the track mapped twice, the second time after the
+    first went unseen for long. The car, which started heading +x, is at ``car_x_m`` heading
+    ``car_yaw_rad`` after ``odometer_m`` of travel."""
+    big = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
+    twins = np.array([[20.0, 3.0], [20.25, 3.1]])
+    slam = _filter_with_landmarks(np.vstack([big, twins]), 0.1)
+    assert not slam.try_close_loop()  # at the start, heading +x
+    x = slam.x.copy()
+    x[0] = car_x_m
+    x[2] = car_yaw_rad
+    slam.load_state(x, slam.P)
+    slam.odometer_m = odometer_m
+    book = slam.book
+    book.first_seen_m[:4] = 0.0
+    book.last_seen_m[:4] = odometer_m - 1.0
+    book.size_votes[:4, int(ConeSize.LARGE)] = 5.0
+    book.first_seen_m[4:] = [12.0, odometer_m - 30.0]
+    book.last_seen_m[4:] = [20.0, odometer_m - 20.0]
+    return slam
+
+
+def test_a_lap_whose_start_stays_in_view_closes_as_the_car_passes_its_big_cones() -> None:
+    # EPFL's 74 m autocross: the start's big cones never go unseen, so none is old or new and
+    # the pattern match cannot close the loop; without this rule the map held every cone out
+    # of view for a while once more each lap (199 landmarks for 57 cones after 3 laps).
+    lap_m = 74.0
+    slam = _short_lap(car_x_m=10.5, odometer_m=lap_m + 10.5)
+    assert slam.try_close_loop()
+    assert slam.n_landmarks == 5  # the twins merged, the big cones kept
+    assert np.allclose(slam.landmarks_xy_m[:4], [[6.95, 2.5], [6.95, -2.5], [9.55, 2.5],
+                                                 [9.55, -2.5]], atol=1e-6)
+    assert slam.stats["loop_closures_seen_through"] == 1
+
+
+def test_a_short_lap_does_not_close_before_the_car_passes_the_start_the_way_it_left() -> None:
+    lap_m = 74.0
+    assert not _short_lap(car_x_m=5.0, odometer_m=lap_m + 5.0).try_close_loop()  # not yet
+    assert not _short_lap(car_x_m=10.5, odometer_m=30.0).try_close_loop()  # too short a lap
+    assert not _short_lap(car_x_m=10.5, odometer_m=lap_m + 10.5,
+                          car_yaw_rad=math.pi).try_close_loop()  # passing the other way
+    # passed 20 m ago: on a stretch further on, not at the start line
+    assert not _short_lap(car_x_m=29.0, odometer_m=lap_m + 29.0).try_close_loop()
+
+
+def test_the_seen_through_rule_leaves_a_start_that_went_out_of_view_to_the_pattern() -> None:
+    # A normal lap: the start's big cones unseen for long are old; the car passing where they
+    # stand does not close the loop until new big cones are mapped to pair with them.
+    slam = _short_lap(car_x_m=10.5, odometer_m=300.0)
+    slam.book.last_seen_m[:4] = 20.0
+    assert not slam.try_close_loop()
+
+
 def test_odometry_and_gps_reduce_uncertainty_and_reject_bad_input() -> None:
     slam = EkfSlam(MapperConfig(), CarConfig())
     for k in range(200):

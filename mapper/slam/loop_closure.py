@@ -60,18 +60,23 @@ class LoopClosure:
         c = self.cfg
         if math.isnan(self.start_yaw_rad):
             self.start_yaw_rad = float(ekf.xbuf[2])
-        if odometer_m < c.min_lap_distance_m or ekf.n_landmarks == 0:
+        if (odometer_m < min(c.min_lap_distance_m, c.seen_through_min_lap_m)
+                or ekf.n_landmarks == 0):
             return False
         turned = math.remainder(float(ekf.xbuf[2]) - self.start_yaw_rad, 2.0 * math.pi)
         if abs(turned) > c.big_cone_heading_max_rad:
             return False
+        if odometer_m < c.min_lap_distance_m:
+            return self._try_seen_through(ekf, book, odometer_m)
         ekf.flush()
         big = book.big_orange(c.min_big_cone_votes)
         age_created = odometer_m - book.first_seen_m
         age_seen = odometer_m - book.last_seen_m
         new = np.flatnonzero(big & (age_created <= c.unseen_travel_m))
         old = np.flatnonzero(big & (age_seen > c.unseen_travel_m))
-        if new.size < c.min_big_cone_pairs or old.size < c.min_big_cone_pairs:
+        if old.size < c.min_big_cone_pairs:
+            return self._try_seen_through(ekf, book, odometer_m)
+        if new.size < c.min_big_cone_pairs:
             return False
         lm = ekf.landmarks_view()
         yaw = float(ekf.xbuf[2])
@@ -98,6 +103,44 @@ class LoopClosure:
         log.info("loop closed at %.1f m: %d big cones, %d duplicates merged",
                  odometer_m, old_idx.size, merged)
         self.stats["loop_closures"] += 1
+        return True
+
+    def _try_seen_through(self, ekf: SlamEkf, book: LandmarkBook, odometer_m: float) -> bool:
+        """Close a loop whose start never went out of association (``seen_through_min_lap_m``)
+        if the car is passing the start's big cones now; True if it closed.
+
+        Those big cones are the very landmarks mapped at the start, so there is no pair to
+        merge; the cones mapped again meanwhile are merged by the backward sweep. The check
+        reads the landmark means as they are (a pending compressed update moves them by
+        centimetres) and flushes the filter only to close, so a run that never closes this way
+        computes exactly what it did without the rule."""
+        c = self.cfg
+        big = book.big_orange(c.min_big_cone_votes)
+        age_created = odometer_m - book.first_seen_m
+        age_seen = odometer_m - book.last_seen_m
+        if np.count_nonzero(big & (age_seen > c.unseen_travel_m)) >= c.min_big_cone_pairs:
+            return False
+        kept = np.flatnonzero(big & (age_created >= c.seen_through_min_lap_m)
+                              & (age_seen <= c.unseen_travel_m))
+        if kept.size < c.min_big_cone_pairs:
+            return False
+        yaw = float(ekf.xbuf[2])
+        rel = ekf.landmarks_view()[kept] - ekf.xbuf[:2]
+        lateral = -rel[:, 0] * math.sin(yaw) + rel[:, 1] * math.cos(yaw)
+        ahead = rel[:, 0] * math.cos(yaw) + rel[:, 1] * math.sin(yaw)
+        passed = ((np.abs(lateral) <= c.big_cone_lateral_max_m)
+                  & (ahead <= 0.0) & (ahead >= -c.big_cone_behind_max_m))
+        if np.count_nonzero(passed) < c.min_big_cone_pairs:
+            return False
+        ekf.flush()
+        self.closed = True
+        self.odometer_m = odometer_m
+        merged = self._backward_sweep(ekf, book)
+        self.merged = merged
+        log.info("loop closed at %.1f m with the start's big cones in view all the lap: "
+                 "%d duplicates merged", odometer_m, merged)
+        self.stats["loop_closures"] += 1
+        self.stats["loop_closures_seen_through"] += 1
         return True
 
     def _unambiguous(self, count: int, rival_count: int) -> bool:
