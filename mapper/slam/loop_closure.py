@@ -9,7 +9,9 @@ each pair is merged by a "same point" measurement ``l_old - l_new = 0`` with a t
 floor ``same_point_sigma_m`` (the seed uses none; the floor keeps S positive definite) and
 the new landmark is deleted. A backward sweep over the landmarks, newest first, then merges
 every duplicate: close in Euclidean and Mahalanobis distance to a landmark never seen at the
-same time, or nearer than two cones can stand.
+same time, or nearer than two cones can stand. On a lap so short that the start's big cones
+are never unseen that long there are neither old nor new ones: the loop closes as the car
+passes them again (``seen_through_min_lap_m``), and the backward sweep merges the rest.
 """
 
 from __future__ import annotations
@@ -53,7 +55,8 @@ class LoopClosure:
         behind the car (``big_cone_behind_max_m``), the car heads the way it started
         (``big_cone_heading_max_rad``), and either
         as many new as old are seen, or the match is unambiguous, or the old ones are behind
-        the car (no more new ones will come).
+        the car (no more new ones will come). A lap whose start's big cones were never out of
+        view that long closes without a match (:meth:`_try_seen_through`).
         """
         if self.closed:
             return True
