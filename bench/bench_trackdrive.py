@@ -144,12 +144,16 @@ def _row(s: dict[str, Any], laps: int) -> tuple[str, bool]:
     best = s.get("best_lap_time_s")
     rmse = s.get("pose_rmse_m")
     view = s.get("mission_result") or {}
+    mapped = s.get("map") or {}
+    map_ratio = (mapped["landmarks"] / mapped["true_cones"]
+                 if mapped.get("true_cones") and "landmarks" in mapped else math.nan)
     return (f"{name:>26} {s['laps_completed']:>5d} {s['cones_hit']:>5d} {s['off_track']:>4d} "
             f"{rmse if rmse is not None else math.nan:>7.3f} "
             f"{best if best else math.nan:>7.2f} {s['min_lap_time_s']:>7.2f} "
             f"{s['lap_ratio']:>6.3f} {s['explored_ratio']:>8.3f} "
             f"{view.get('explored_view_m') or math.nan:>6.1f} "
-            f"{view.get('view_ceiling_ratio') or math.nan:>7.3f} {s['wall_s']:>6.1f} "
+            f"{view.get('view_ceiling_ratio') or math.nan:>7.3f} {map_ratio:>5.2f} "
+            f"{s['wall_s']:>6.1f} "
             f"{'clean' if clean else 'FAIL':>5}  "
             f"{s['stop_reason']}"), clean
 
@@ -168,7 +172,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     runs = [(track, seed) for track in tracks for seed in seeds]
     print(f"{'track:seed':>26} {'laps':>5} {'cones':>5} {'off':>4} {'rmse_m':>7} {'best_s':>7} "
           f"{'min_s':>7} {'ratio':>6} {'explored':>8} {'view_m':>6} {'ceiling':>7} "
-          f"{'wall_s':>6} {'':>5}  stop_reason",
+          f"{'map_x':>5} {'wall_s':>6} {'':>5}  stop_reason",
           flush=True)
     results: list[dict[str, Any]] = []
     clean_runs = 0
