@@ -344,8 +344,9 @@ class SlamConfig:
     merge_distance_m: float = 1.2
     duplicate_distance_m: float = 0.2
     """Two landmarks nearer than this (m) are one cone mapped twice, seen together or not
-    (cones stand at least a base, 0.23 m, apart): the loop closure's backward sweep merges them
-    when their difference passes the merge gate."""
+    (cones stand at least a base, 0.23 m, apart): the loop closure's backward sweep merges them,
+    or drops the newer when the merge gate refuses their difference (their sigmas leave out the
+    LiDAR's bias along the ray each was seen from)."""
     merge_gate_probability: float = 0.9999
     same_point_sigma_m: float = 1.0e-3
     """The 'zero-noise' same-point measurement's floor (m): seed 5.3.2 uses none."""

@@ -284,6 +284,38 @@ def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> No
     assert slam.n_landmarks == 5
 
 
+def test_closure_drops_a_twin_nearer_than_two_cones_can_stand_that_the_gate_refuses() -> None:
+    # A cone seen again from across the infield lands 8 cm from its first landmark, each
+    # landmark sure to 1 cm: the merge gate refuses the pair (d^2 32), yet two cones cannot
+    # stand that close. The newer is dropped; the older keeps its place, and a same-point
+    # merge (which would drag both and their correlates) is not made.
+    old_big = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
+    new_big = old_big[:3] + [0.3, 0.1]
+    twins = np.array([[20.0, 3.0], [20.08, 3.0]])
+    slam = _filter_with_landmarks(np.vstack([old_big, new_big, twins]), 0.1)
+    x, p = slam.x.copy(), slam.P.copy()
+    x[0] = 2.0
+    for i in (7, 8):
+        c = POSE_DIM + 2 * i
+        p[c:c + 2, c:c + 2] = np.eye(2) * 0.01 ** 2
+    slam.load_state(x, p)
+    slam.odometer_m = 300.0
+    book = slam.book
+    book.first_seen_m[:4] = book.last_seen_m[:4] = 0.0
+    book.first_seen_m[4:7] = book.last_seen_m[4:7] = 298.0
+    book.size_votes[:7, int(ConeSize.LARGE)] = 5.0
+    book.first_seen_m[7:] = [100.0, 200.0]
+    book.last_seen_m[7:] = 299.0
+    book.colour_votes[8, int(ConeColour.BLUE)] = 4.0
+    assert slam.try_close_loop()
+    xy = slam.landmarks_xy_m
+    twin = np.flatnonzero(np.hypot(xy[:, 0] - 20.0, xy[:, 1] - 3.0) < 0.2)
+    assert twin.size == 1 and slam.n_landmarks == 5
+    assert np.allclose(xy[twin[0]], [20.0, 3.0], atol=1e-9)  # the older, where it was
+    assert slam.book.colour_votes[twin[0], int(ConeColour.BLUE)] == 4.0  # the newer's votes
+    assert slam.stats["duplicates_dropped"] == 1
+
+
 def _short_lap(car_x_m: float, odometer_m: float, car_yaw_rad: float = 0.0) -> EkfSlam:
     """A filter on a lap so short that the start's four big cones (mapped at the start) were
     seen all the way round; a cone 20 m down the track mapped twice, the second time after the
