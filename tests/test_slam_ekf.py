@@ -362,6 +362,32 @@ def test_a_short_lap_does_not_close_before_the_car_passes_the_start_the_way_it_l
     assert not _short_lap(car_x_m=29.0, odometer_m=lap_m + 29.0).try_close_loop()
 
 
+def test_a_short_lap_closes_beside_big_landmarks_lost_at_the_start() -> None:
+    # EPFL's 74 m lap, seed 3: two small cones beside the start's big ones were taken for big
+    # at the start and then lost to their neighbours' landmarks, so two "old" big landmarks
+    # stand by the ones seen all the way round; the loop closes all the same.
+    lap_m = 74.0
+    slam = _short_lap(car_x_m=10.5, odometer_m=lap_m + 10.5)
+    x, p = slam.x.copy(), slam.P.copy()
+    n = slam.n_landmarks
+    stale = np.array([[7.45, 2.5], [7.45, -2.5]])
+    x2 = np.concatenate([x, stale.ravel()])
+    p2 = np.eye(len(x2)) * 0.1 ** 2
+    p2[:len(x), :len(x)] = p
+    book = slam.book
+    first, last = book.first_seen_m.copy(), book.last_seen_m.copy()
+    votes = book.size_votes.copy()
+    slam.load_state(x2, p2)
+    book = slam.book
+    book.first_seen_m[:n], book.last_seen_m[:n] = first, last
+    book.size_votes[:n] = votes
+    book.first_seen_m[n:] = 0.0
+    book.last_seen_m[n:] = 5.0
+    book.size_votes[n:, int(ConeSize.LARGE)] = 4.0
+    assert slam.try_close_loop()
+    assert slam.n_landmarks == n - 1 + 2  # the twins merged, the stale big ones kept
+
+
 def test_the_seen_through_rule_leaves_a_start_that_went_out_of_view_to_the_pattern() -> None:
     # A normal lap: the start's big cones unseen for long are old; the car passing where they
     # stand does not close the loop until new big cones are mapped to pair with them.
