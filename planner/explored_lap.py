@@ -29,6 +29,18 @@ DRIVEN_NEAR_M, DRIVEN_BEHIND_M = 3.0, 40.0
 """The stretch of the driven trace (m behind the car) whose gates are behind it."""
 
 
+def _crossing(last: FloatArray, here: FloatArray, point: FloatArray, along_xy: FloatArray
+              ) -> tuple[bool, float]:
+    """Whether the step from ``last`` to ``here`` (m) crosses the line through ``point`` along
+    ``along_xy`` towards its left, and how far (m) from ``point`` along the line (inf if not)."""
+    normal = np.array([-along_xy[1], along_xy[0]])
+    before, after = float((last - point) @ normal), float((here - point) @ normal)
+    if not before < 0.0 <= after:
+        return False, math.inf
+    cross = last + (here - last) * (before / (before - after))
+    return True, abs(float((cross - point) @ along_xy))
+
+
 class ExploredLap:
     """Progress from the start pose ``origin_xy`` (m) heading ``origin_yaw_rad``, fed the car's
     position at each plan (:meth:`update`)."""
@@ -47,6 +59,8 @@ class ExploredLap:
         self._last_xy: tuple[float, float] | None = None
         self._trace: list[tuple[float, float]] = []
         """Where the car was while exploring, ``TRACE_STEP_M`` apart (world frame, m)."""
+        self._last_line: tuple[FloatArray, FloatArray, float] | None = None
+        """The start line (point, direction, half-length) at the last call, when across."""
         self._point_ahead_m: float | None = None
         """How far ahead of the car (m) the start line's point was, when the car passes it
         abreast (the big cones of one side only)."""
@@ -83,12 +97,14 @@ class ExploredLap:
                     self._point_ahead_m = ahead_m
             else:
                 self._point_ahead_m = None
-                normal = np.array([-along_xy[1], along_xy[0]])
-                before, after = float((last - point) @ normal), float((here - point) @ normal)
-                if before < 0.0 <= after:
-                    crossed = True
-                    cross = last + (here - last) * (before / (before - after))
-                    off_m = abs(float((cross - point) @ along_xy))
+                crossed, off_m = _crossing(last, here, point, along_xy)
+                prev = self._last_line
+                if not (crossed and off_m <= half_m) and prev is not None:
+                    # the line moved under the car as it crossed (the map froze: its big
+                    # cones merged, EUFS Jellybean seed 9 missed its lap and drove another):
+                    # the line it was approaching counts
+                    crossed, off_m = _crossing(last, here, prev[0], prev[1])
+                    off_m = off_m if off_m <= prev[2] else math.inf
             if crossed and off_m <= half_m:
                 if self.explored_m - self._last_crossing_m >= self.config.lap_min_m:
                     self.laps += 1
@@ -100,6 +116,7 @@ class ExploredLap:
                                  self.explored_m - self._last_crossing_m)
                 self._last_crossing_m = self.explored_m
         self._last_xy = (x_m, y_m)
+        self._last_line = (point, along_xy, half_m) if along_xy is not None else None
         if not self._trace or math.hypot(x_m - self._trace[-1][0],
                                          y_m - self._trace[-1][1]) >= TRACE_STEP_M:
             self._trace.append((x_m, y_m))
