@@ -29,16 +29,16 @@ DRIVEN_NEAR_M, DRIVEN_BEHIND_M = 3.0, 40.0
 """The stretch of the driven trace (m behind the car) whose gates are behind it."""
 
 
-def _crossing(last: FloatArray, here: FloatArray, point: FloatArray, along_xy: FloatArray
-              ) -> tuple[bool, float]:
+def _crossing(last: FloatArray, here: FloatArray, point: FloatArray, along_xy: FloatArray,
+              half_m: float) -> bool:
     """Whether the step from ``last`` to ``here`` (m) crosses the line through ``point`` along
-    ``along_xy`` towards its left, and how far (m) from ``point`` along the line (inf if not)."""
+    ``along_xy`` towards its left, within ``half_m`` (m) of ``point``."""
     normal = np.array([-along_xy[1], along_xy[0]])
     before, after = float((last - point) @ normal), float((here - point) @ normal)
     if not before < 0.0 <= after:
-        return False, math.inf
+        return False
     cross = last + (here - last) * (before / (before - after))
-    return True, abs(float((cross - point) @ along_xy))
+    return abs(float((cross - point) @ along_xy)) <= half_m
 
 
 class ExploredLap:
@@ -97,14 +97,14 @@ class ExploredLap:
                     self._point_ahead_m = ahead_m
             else:
                 self._point_ahead_m = None
-                crossed, off_m = _crossing(last, here, point, along_xy)
+                crossed = _crossing(last, here, point, along_xy, half_m)
                 prev = self._last_line
-                if not (crossed and off_m <= half_m) and prev is not None:
+                if not crossed and prev is not None:
                     # the line moved under the car as it crossed (the map froze: its big
                     # cones merged, EUFS Jellybean seed 9 missed its lap and drove another):
                     # the line it was approaching counts
-                    crossed, off_m = _crossing(last, here, prev[0], prev[1])
-                    off_m = off_m if off_m <= prev[2] else math.inf
+                    crossed = _crossing(last, here, *prev)
+                off_m = 0.0
             if crossed and off_m <= half_m:
                 if self.explored_m - self._last_crossing_m >= self.config.lap_min_m:
                     self.laps += 1

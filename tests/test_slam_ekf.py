@@ -260,17 +260,22 @@ def test_loop_does_not_close_on_big_cones_passed_heading_the_other_way() -> None
     assert slam.try_close_loop()  # arriving, a little askew
 
 
-def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> None:
-    # A cone mapped again mid-lap (seen across the infield, the old landmark unseen for
-    # long), then both associated again: never-seen-together does not hold, yet 3 cm apart
-    # they are one cone (two cones stand a base apart at least).
+def _closure_with_twins(gap_m: float, twin_sigma_m: float | None = None) -> EkfSlam:
+    """A filter a lap after the start, the car arriving at the start's four big cones (three
+    mapped again, 0.3 m off), with a cone 20 m on mapped twice ``gap_m`` apart: once at 100 m,
+    again at 200 m, both seen since (each sure to ``twin_sigma_m``; default the filter's
+    0.1 m)."""
     old_big = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
     new_big = old_big[:3] + [0.3, 0.1]
-    twins = np.array([[20.0, 3.0], [20.03, 3.0]])
+    twins = np.array([[20.0, 3.0], [20.0 + gap_m, 3.0]])
     slam = _filter_with_landmarks(np.vstack([old_big, new_big, twins]), 0.1)
-    x = slam.x.copy()
+    x, p = slam.x.copy(), slam.P.copy()
     x[0] = 2.0
-    slam.load_state(x, slam.P)
+    if twin_sigma_m is not None:
+        for i in (7, 8):
+            c = POSE_DIM + 2 * i
+            p[c:c + 2, c:c + 2] = np.eye(2) * twin_sigma_m ** 2
+    slam.load_state(x, p)
     slam.odometer_m = 300.0
     book = slam.book
     book.first_seen_m[:4] = book.last_seen_m[:4] = 0.0
@@ -278,6 +283,14 @@ def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> No
     book.size_votes[:7, int(ConeSize.LARGE)] = 5.0
     book.first_seen_m[7:] = [100.0, 200.0]
     book.last_seen_m[7:] = 299.0  # both seen since the second was mapped
+    return slam
+
+
+def test_closure_merges_a_cone_mapped_twice_even_if_both_were_seen_since() -> None:
+    # A cone mapped again mid-lap (seen across the infield, the old landmark unseen for
+    # long), then both associated again: never-seen-together does not hold, yet 3 cm apart
+    # they are one cone (two cones stand a base apart at least).
+    slam = _closure_with_twins(0.03)
     assert slam.try_close_loop()
     xy = slam.landmarks_xy_m
     assert np.count_nonzero(np.hypot(xy[:, 0] - 20.0, xy[:, 1] - 3.0) < 0.1) == 1
@@ -289,24 +302,8 @@ def test_closure_drops_a_twin_nearer_than_two_cones_can_stand_that_the_gate_refu
     # landmark sure to 1 cm: the merge gate refuses the pair (d^2 32), yet two cones cannot
     # stand that close. The newer is dropped; the older keeps its place, and a same-point
     # merge (which would drag both and their correlates) is not made.
-    old_big = np.array([[6.95, 2.5], [6.95, -2.5], [9.55, 2.5], [9.55, -2.5]])
-    new_big = old_big[:3] + [0.3, 0.1]
-    twins = np.array([[20.0, 3.0], [20.08, 3.0]])
-    slam = _filter_with_landmarks(np.vstack([old_big, new_big, twins]), 0.1)
-    x, p = slam.x.copy(), slam.P.copy()
-    x[0] = 2.0
-    for i in (7, 8):
-        c = POSE_DIM + 2 * i
-        p[c:c + 2, c:c + 2] = np.eye(2) * 0.01 ** 2
-    slam.load_state(x, p)
-    slam.odometer_m = 300.0
-    book = slam.book
-    book.first_seen_m[:4] = book.last_seen_m[:4] = 0.0
-    book.first_seen_m[4:7] = book.last_seen_m[4:7] = 298.0
-    book.size_votes[:7, int(ConeSize.LARGE)] = 5.0
-    book.first_seen_m[7:] = [100.0, 200.0]
-    book.last_seen_m[7:] = 299.0
-    book.colour_votes[8, int(ConeColour.BLUE)] = 4.0
+    slam = _closure_with_twins(0.08, twin_sigma_m=0.01)
+    slam.book.colour_votes[8, int(ConeColour.BLUE)] = 4.0
     assert slam.try_close_loop()
     xy = slam.landmarks_xy_m
     twin = np.flatnonzero(np.hypot(xy[:, 0] - 20.0, xy[:, 1] - 3.0) < 0.2)

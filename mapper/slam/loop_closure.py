@@ -213,11 +213,7 @@ class LoopClosure:
         y = -(lm[keep] - lm[drop]).ravel()
         r = np.eye(2 * a) * self.cfg.same_point_sigma_m ** 2
         ekf.update(cols, h, y, r)
-        book.colour_votes[keep] += book.colour_votes[drop]
-        book.size_votes[keep] += book.size_votes[drop]
-        book.last_seen_m[keep] = np.maximum(book.last_seen_m[keep], book.last_seen_m[drop])
-        book.keep(ekf.delete(drop))
-        self.stats["landmarks_deleted"] += int(drop.size)
+        self.drop(ekf, book, keep, drop)
         ekf.symmetrise()
 
     def drop(self, ekf: SlamEkf, book: LandmarkBook, keep: NDArray[np.int64],
@@ -229,7 +225,6 @@ class LoopClosure:
         book.last_seen_m[keep] = np.maximum(book.last_seen_m[keep], book.last_seen_m[drop])
         book.keep(ekf.delete(drop))
         self.stats["landmarks_deleted"] += int(drop.size)
-        self.stats["duplicates_dropped"] += int(drop.size)
 
     def _backward_sweep(self, ekf: SlamEkf, book: LandmarkBook) -> int:
         """Merge duplicates newest first: a landmark and an older one never seen together, or
@@ -274,6 +269,7 @@ class LoopClosure:
             if float(diff @ np.linalg.solve(s, diff)) > self.merge_gate:
                 if d_all[k] <= c.duplicate_distance_m:
                     self.drop(ekf, book, np.array([k]), np.array([j]))
+                    self.stats["duplicates_dropped"] += 1
                     merged += 1
                 continue
             self.merge(ekf, book, np.array([k]), np.array([j]))
