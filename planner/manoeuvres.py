@@ -167,7 +167,7 @@ class ManoeuvreGenerator:
         return cands, -1
 
     @staticmethod
-    def roomiest(cands: list[Candidate], stop_room_m: float = 0.0) -> int:
+    def stop_path(cands: list[Candidate], stop_room_m: float = 0.0) -> int:
         """The index of the path a stop follows when no candidate is feasible, among those
         that stay in the lane (among all when none does): one that leaves ``stop_room_m`` (m,
         the car's braking distance) before it comes too near a cone (its ``free_m``), or

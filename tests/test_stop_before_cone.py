@@ -1,5 +1,5 @@
-"""With no feasible manoeuvre the car stops on the roomiest candidate, standing before the first
-cone that candidate would pass too near, not at the candidate's end beyond it
+"""With no feasible manoeuvre the car stops on a candidate (``ManoeuvreGenerator.stop_path``),
+standing before the first cone that candidate would pass too near, not at its end beyond it
 (planner/manoeuvres.py ``Candidate.free_m``, planner/target_states.py).
 
 Camera dead on hard:corner-start, every seed crept on at 2 m/s along a stop path whose
@@ -42,7 +42,7 @@ def _stop_targets(speed_mps: float) -> tuple[ManoeuvreGenerator, Candidate, Targ
     generator = ManoeuvreGenerator(PlannerConfig(), CarConfig())
     cands, best = generator.generate(frame, 5.0, 0.0, 0.0, speed_mps, cones, None)
     assert best < 0, "the wall leaves no feasible manoeuvre"
-    stop = cands[generator.roomiest(cands, speed_mps**2 / (2.0 * LIMITS.brake_mps2))]
+    stop = cands[generator.stop_path(cands, speed_mps**2 / (2.0 * LIMITS.brake_mps2))]
     targets = timed_targets(stop, lambda s: np.full(len(s), 12.0), LIMITS, 0.0, stop=True,
                             min_plan_speed_mps=1.0)
     return generator, stop, targets
@@ -84,7 +84,7 @@ def test_a_car_already_too_near_a_cone_on_every_path_is_asked_to_stand_now() -> 
     axle_x = WALL_X_M + 0.1 - (float(generator.circle_offsets_m.max()) + generator.circle_radius_m)
     cands, best = generator.generate(frame, axle_x + 5.0, 0.0, 0.0, 2.0, cones, None)
     assert best < 0
-    stop = cands[generator.roomiest(cands)]
+    stop = cands[generator.stop_path(cands)]
     assert stop.free_m == 0.0
     targets = timed_targets(stop, lambda s: np.full(len(s), 12.0), LIMITS, 0.0, stop=True,
                             min_plan_speed_mps=1.0)
