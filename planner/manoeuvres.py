@@ -50,6 +50,11 @@ class Candidate:
     """A fallback manoeuvre (short horizon, sharp) is driven no faster than this (m/s)."""
     leaves_lane: bool = False
     """It leaves the lane between two of its cones (:mod:`planner.boundary_walls`)."""
+    free_m: float = math.inf
+    """How far along it (m) a stop may stand: its last point before the circles covering the
+    car come nearer a cone than the near margin (``cone_clearance_near_m``, or what the car has
+    where it stands, if less), by more than the circles overstate the body's reach
+    (``circle_overreach_m``); inf: clear all the way."""
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -85,6 +90,8 @@ class ManoeuvreGenerator:
         spacing = (front - rear) / n
         self.circle_offsets_m = rear + spacing * (np.arange(n) + 0.5)
         self.circle_radius_m = math.hypot(half_w, spacing / 2.0)
+        self.circle_overreach_m = self.circle_radius_m - half_w
+        """How far (m) the circles reach beyond the body's side, at most (between corners)."""
         self.required_m = self.circle_radius_m + config.cone_clearance_m
         self.rejections: collections.Counter[str] = collections.Counter()
         """Rejected candidates by family and check (``"nominal: clearance"``, ...)."""
@@ -163,11 +170,14 @@ class ManoeuvreGenerator:
         return cands, -1
 
     @staticmethod
-    def roomiest(cands: list[Candidate]) -> int:
-        """The index of the candidate with the most clearance among those that stay in the
-        lane (among all when none does): the path a stop follows when none is feasible."""
+    def stop_path(cands: list[Candidate], stop_room_m: float = 0.0) -> int:
+        """The index of the path a stop follows when no candidate is feasible, among those
+        that stay in the lane (among all when none does): one that leaves ``stop_room_m`` (m,
+        the car's braking distance) before it comes too near a cone (its ``free_m``), or
+        else the one that leaves the most; then the one with the most clearance."""
         inside = [i for i, cand in enumerate(cands) if not cand.leaves_lane]
-        return max(inside or range(len(cands)), key=lambda i: cands[i].clearance_m)
+        return max(inside or range(len(cands)),
+                   key=lambda i: (min(cands[i].free_m, stop_room_m), cands[i].clearance_m))
 
     def full_margin_m(self, speed_mps: float) -> float:
         """The hard cone margin (m) of the manoeuvres with the full margin while exploring, the
@@ -297,6 +307,7 @@ class ManoeuvreGenerator:
         if last_offset_m is not None:
             cost_all = cost_all + c.weight_consistency * (offs - last_offset_m) ** 2
         clear_all = np.full(count, math.inf)
+        free_all = np.full(count, math.inf)
         worst = np.zeros(count, np.int64)
         hit_all = np.zeros(count, bool)
         if gap_all is not None:
@@ -308,6 +319,14 @@ class ManoeuvreGenerator:
             slack = gap_all - (near[:, None] + (full - near)[:, None] * ramp_frac[None, :])
             worst = np.argmin(slack, axis=1)
             hit_all = slack[np.arange(count), worst] < 0.0
+            # a stop stands at the last point before the path comes nearer than the near margin
+            # (from where the car stands, less what the circles overstate beside the body: a
+            # path along a cone as near by the body as now may read that much nearer)
+            stand = np.minimum(c.cone_clearance_near_m, gap_all[:, 0]) - self.circle_overreach_m
+            touch = gap_all < stand[:, None]
+            first = np.argmax(touch, axis=1)
+            free_all = np.where(touch[np.arange(count), first], u[np.maximum(first - 1, 0)],
+                                math.inf)
             short = np.maximum(0.0, c.preferred_clearance_m - clear_all)
             cost_all = cost_all + np.where(np.isfinite(clear_all),
                                            c.weight_clearance * short * short, 0.0)
@@ -329,5 +348,5 @@ class ManoeuvreGenerator:
             cands.append(Candidate(float(offs[j]), s, d[j], xy[j], heading[j], kappa[j],
                                    float(clear_all[j]), collision_free and not bent_all[j],
                                    float(cost_all[j]), reason, collision_free, kmax,
-                                   speed_cap_mps, out))
+                                   speed_cap_mps, out, float(free_all[j])))
         return cands

@@ -545,8 +545,8 @@ class PathPlanner:
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
             self._last_chosen = None
-            fallback = self.generator.roomiest(cands)
-            logger.warning("no feasible manoeuvre at s=%.1f m: stopping (the roomiest candidate: "
+            fallback = self.generator.stop_path(cands, speed**2 / (2.0 * self.limits.brake_mps2))
+            logger.warning("no feasible manoeuvre at s=%.1f m: stopping (on the candidate: "
                            "%s; rejected so far: %s)", s0, cands[fallback].reason,
                            dict(self.generator.rejections))
             targets = self._targets(cands[fallback], now_s, stop=True)

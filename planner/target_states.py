@@ -29,12 +29,15 @@ def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
     """The candidate ``cand`` as target states timed from ``now_s`` (s): its speed (m/s) the
     least of the baseframe's profile at its arc lengths (``speed_at``), the friction circle
     on its own curvature (``limits``) and its own cap; braked (within ``limits``) to stand at
-    its end when ``stop``, and otherwise never below ``min_plan_speed_mps`` (or its slowest
-    limit, when that is lower)."""
+    its end when ``stop``, or before the point where it comes too near a cone (its ``free_m``)
+    if that is nearer, and otherwise never below ``min_plan_speed_mps`` (or its slowest limit,
+    when that is lower)."""
     s = cand.s_m
     ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
     v_lim = np.minimum(speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm, limits))
     v_lim = np.minimum(v_lim, cand.speed_cap_mps)
+    if stop:  # no feasible path: stand before the first cone it would pass too near, not on it
+        v_lim = np.where(s - s[0] >= cand.free_m, 0.0, v_lim)
     # a stop: brake (within the limits) to stand at the end of the candidate
     v_end = 0.0 if stop else float(v_lim[-1])
     # backward pass: every target can be reached with the (safety-scaled) brakes

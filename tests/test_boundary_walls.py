@@ -93,5 +93,5 @@ def test_a_manoeuvre_out_between_the_cones_is_refused_and_never_the_stop_path() 
     cands, best = within.generate(frame, 5.0, 0.0, 0.0, 3.0, blocked, None, walls=walls)
     assert best < 0  # nothing in the lane clears it: the car stops
     assert within.rejections and any(k.endswith("boundary") for k in within.rejections)
-    stop = cands[within.roomiest(cands)]
+    stop = cands[within.stop_path(cands)]
     assert not leaves_through(stop.xy_m[None], walls)[0]
