@@ -6,14 +6,16 @@ friction-limited minimum lap time along the centreline
 (:func:`planner.speed_profile.min_lap_time_s`), and the explored lap's (the first, driven from
 the cones as they are mapped; autocross's one lap) over the same minimum, the seen track
 ahead of the car while it explored (its median, ``view_m``) and the ceiling that much in view
-sets (``ceiling``: :mod:`bench.bench_ceiling`'s ratio at that view). Tracks:
+sets (``ceiling``: :mod:`bench.bench_ceiling`'s ratio at that view), and the least gap between
+the car's outline and a cone's base over the run (``clear_m``, :mod:`simulator.clearance`:
+clean by how much; negative, a cone touched). Tracks:
 ``--tracks N`` (gen:1..N), or a list of
 names, files and folders (every ``.csv``/``.yaml`` in a folder), ``--hard`` adds the hard
 layouts (:mod:`simulator.hard_tracks`), ``--fsg`` FSG from the shared data. A run is clean when
 it completes its laps with no cone hit and no off-track event. Last lines: the clean count, the
-median and worst explored ratio and the median ceiling; the median and worst lap ratio, and the
-worst track by name (a run that did not complete a lap counts as ratio ``inf``). ``--jobs``
-runs that many simulations side by side.
+median and worst explored ratio, the median ceiling and the least clearance of any run; the
+median and worst lap ratio, and the worst track by name (a run that did not complete a lap
+counts as ratio ``inf``). ``--jobs`` runs that many simulations side by side.
 """
 
 from __future__ import annotations
@@ -135,6 +137,16 @@ def track_name(track: str) -> str:
     return "FSG" if track == str(FSG) else Path(track).stem if "/" in track else track
 
 
+def _least_gap_m(s: dict[str, Any]) -> float:
+    """The run's least gap (m) between the car's outline and a cone's base
+    (:mod:`simulator.clearance`); inf when none came near, NaN when not measured."""
+    least = s.get("least_clearance")
+    if not isinstance(least, dict):
+        return math.nan
+    gap = least.get("gap_m")
+    return math.inf if gap is None else float(gap)
+
+
 def _row(s: dict[str, Any], laps: int) -> tuple[str, bool]:
     """The table line of one run and whether it was clean."""
     name = f"{track_name(s['track'])}:{s['seed'] if s['seed'] is not None else '-'}"
@@ -147,13 +159,14 @@ def _row(s: dict[str, Any], laps: int) -> tuple[str, bool]:
     mapped = s.get("map") or {}
     map_ratio = (mapped["landmarks"] / mapped["true_cones"]
                  if mapped.get("true_cones") and "landmarks" in mapped else math.nan)
+    gap = _least_gap_m(s)
     return (f"{name:>26} {s['laps_completed']:>5d} {s['cones_hit']:>5d} {s['off_track']:>4d} "
             f"{rmse if rmse is not None else math.nan:>7.3f} "
             f"{best if best else math.nan:>7.2f} {s['min_lap_time_s']:>7.2f} "
             f"{s['lap_ratio']:>6.3f} {s['explored_ratio']:>8.3f} "
             f"{view.get('explored_view_m') or math.nan:>6.1f} "
             f"{view.get('view_ceiling_ratio') or math.nan:>7.3f} {map_ratio:>5.2f} "
-            f"{s['wall_s']:>6.1f} "
+            f"{gap:>7.3f} {s['wall_s']:>6.1f} "
             f"{'clean' if clean else 'FAIL':>5}  "
             f"{s['stop_reason']}"), clean
 
@@ -172,7 +185,7 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     runs = [(track, seed) for track in tracks for seed in seeds]
     print(f"{'track:seed':>26} {'laps':>5} {'cones':>5} {'off':>4} {'rmse_m':>7} {'best_s':>7} "
           f"{'min_s':>7} {'ratio':>6} {'explored':>8} {'view_m':>6} {'ceiling':>7} "
-          f"{'map_x':>5} {'wall_s':>6} {'':>5}  stop_reason",
+          f"{'map_x':>5} {'clear_m':>7} {'wall_s':>6} {'':>5}  stop_reason",
           flush=True)
     results: list[dict[str, Any]] = []
     clean_runs = 0
@@ -199,9 +212,11 @@ def run(args: argparse.Namespace, config: AppConfig) -> int:
     ceilings = [float(s["mission_result"]["view_ceiling_ratio"]) for s in results
                 if (s.get("mission_result") or {}).get("view_ceiling_ratio") is not None]
     median_ceiling = statistics.median(ceilings) if ceilings else math.nan
+    gaps = [g for g in map(_least_gap_m, results) if not math.isnan(g)]
     print(f"runs={len(results)} clean={clean_runs} cones_hit={cones} "
           f"median_explored_ratio={median_explored:.3f} worst_explored_ratio={max(explored):.3f} "
-          f"median_view_ceiling_ratio={median_ceiling:.3f}")
+          f"median_view_ceiling_ratio={median_ceiling:.3f} "
+          f"least_clearance_m={min(gaps) if gaps else math.nan:.3f}")
     print(f"median_lap_ratio={statistics.median(finite) if finite else math.inf:.3f} "
           f"worst_lap_ratio={max(ratios):.3f} worst_track={track_name(worst['track'])}"
           f":{worst['seed'] if worst['seed'] is not None else '-'}")

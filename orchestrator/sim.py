@@ -49,6 +49,7 @@ from orchestrator.progress import LINE_PERIOD_S, Progress, realtime_status
 from orchestrator.run_log import RunLog
 from recordings import fsd_pb2
 from recordings.topics import EVAL_POSE_ERROR, TRUTH_POSE, TRUTH_TRACK
+from simulator.clearance import run_clearance
 from simulator.driver import ScriptedDriver
 from simulator.faults import parse_fault
 from simulator.handover import Handover, Phase
@@ -499,6 +500,7 @@ def _summary(config: AppConfig, track: Track, world: SimWorld, main: Main, runne
              "phase": "autonomous" if t >= runner.person.handover_time_s else "exploration"}
             for t, i in world.cone_hits],
         "off_track": world.off_track_events,
+        "least_clearance": run_clearance(runner.log.t_s, runner.log.truth, track, config.car),
         "pose_rmse_m": _round(errors["pose_rmse_m"], 4),
         "heading_rmse_rad": _round(errors["heading_rmse_rad"], 5),
         "final_offset_m": _round(errors["final_offset_m"], 4),
