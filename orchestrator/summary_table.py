@@ -46,9 +46,10 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         ("realtime factor", timing.get("realtime_factor")),
     ]
     least = summary.get("least_clearance") or {}
-    if least.get("gap_m") is not None:  # right after "off track"
-        rows.insert(8, ("least clearance (m)", f"{least['gap_m']:.3f} (cone {least['cone']} "
-                                               f"at {least['time_s']:.2f} s)"))
+    if least.get("gap_m") is not None:
+        after_off_track = [name for name, _ in rows].index("off track") + 1
+        rows.insert(after_off_track, ("least clearance (m)", f"{least['gap_m']:.3f} (cone "
+                                      f"{least['cone']} at {least['time_s']:.2f} s)"))
     result = summary.get("mission_result") or {}
     if result.get("explored_ratio") is not None:
         rows.insert(6, ("explored / friction limit", result["explored_ratio"]))
