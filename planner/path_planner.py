@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from common.car import CarConfig
 from common.errors import TrackError
-from common.messages import Baseframe, ConeColour, MapState, Plan, PoseEstimate, TargetStates
+from common.messages import Baseframe, MapState, Plan, PoseEstimate, TargetStates
 from planner.baseframe import SplineBaseframe, centre_on_cones
 from planner.boundary_walls import boundary_walls
 from planner.config import PlannerConfig
@@ -32,6 +32,7 @@ from planner.exploration_speed import (
 from planner.explored_lap import ExploredLap
 from planner.exploring_line import steerable_frame
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
+from planner.lap_counter import LapCounter
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.race_job import BackgroundRace, RaceLine, build_race_line
 from planner.speed_profile import (
@@ -86,21 +87,26 @@ class PathPlanner:
         self._frame_msg: Baseframe | None = None
         self._speed_mps = np.zeros(0)
         self.autonomous = False
-        self._s_hint: float | None = None
+        self.laps = LapCounter(c.lap_min_fraction, c.start_line_search_m)
         self._last_offset: float | None = None
         self._last_chosen: Candidate | None = None
-        self._s_start: float | None = None
-        self._progress_m = 0.0
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
-        self._line_offset_m: float | None = None
-        """Arc length (m) from the start to the start line on a closed explored track."""
         self._explored: ExploredLap | None = None
         """The car's progress while it explores (distance, start-line crossings, trace)."""
-        self.lap = 0
         self.rejects: collections.Counter[str] = collections.Counter()
         self.views_ahead_m: list[float] = []
         """The seen track ahead of the car (m) at each exploring plan (:meth:`explored_view`)."""
+
+    @property
+    def lap(self) -> int:
+        """Laps done (:class:`planner.lap_counter.LapCounter`; exploring, the explored lap's
+        start-line crossings; 1 once a known path's run is done)."""
+        return self.laps.lap
+
+    @lap.setter
+    def lap(self, value: int) -> None:
+        self.laps.lap = value
 
     # ------------------------------------------------------------------ phases
     def observe(self, map_state: MapState) -> None:
@@ -269,39 +275,15 @@ class PathPlanner:
             logger.warning("racing line's baseframe failed (%s): the centre line stays", exc)
             return
         old, lap = self.frame, self.lap
-        laps_done = self._laps_done()  # laps past the start, with the fraction (old frame)
+        laps_done = self.laps.laps_done(old)  # laps past the start, with the fraction
         self.frame = frame
         self._frame_msg = frame.to_message()
         self._speed_mps = self._profile(frame)
         self._reset_progress(map_state)
         if old is not None and old.closed and laps_done is not None:
-            # the same place in the lap on the new frame, the nearest whole number of laps
-            # to the old count (its start may lie a little before or after the old one's)
-            length = frame.length_m
-            if self._line_offset_m is not None:
-                fraction = ((self._progress_m - self._line_offset_m) / length) % 1.0
-                self._progress_m = self._line_offset_m + (round(laps_done - fraction)
-                                                          + fraction) * length
-            elif self._s_hint is not None:
-                fraction = (self._s_hint % length) / length
-                self._s_start = 0.0
-                self._progress_m = (round(laps_done - fraction) + fraction) * length
+            self.laps.carry_over(frame, laps_done)
         self.lap = max(lap, self.lap)
         logger.info("racing line swapped in: %.1f m, lap %d", frame.length_m, self.lap)
-
-    def _laps_done(self) -> float | None:
-        """Laps done on the closed frame, with the fraction of the lap the car is in (None
-        before progress is counted): what :meth:`_update_lap` floors."""
-        frame = self.frame
-        if frame is None or not frame.closed or self._s_start is None:
-            return None
-        length = frame.length_m
-        if self._line_offset_m is not None:
-            return (self._progress_m - self._line_offset_m) / length
-        done = (self._s_start + self._progress_m) / length
-        if length - self._s_start < self.config.lap_min_fraction * length:
-            done -= 1.0  # started just before the line: its first crossing is no lap
-        return done
 
     def close(self) -> None:
         """Stop the racing line's background process, if any."""
@@ -434,60 +416,9 @@ class PathPlanner:
 
     # ------------------------------------------------------------------ laps
     def _reset_progress(self, map_state: MapState) -> None:
-        self._s_hint = None
-        self._s_start = None
-        self._progress_m = 0.0
         self._last_chosen = None
-        self.lap = 0
-        pose = map_state.pose
-        if self.frame is not None and math.isfinite(pose.x_m) and math.isfinite(pose.y_m):
-            s, _ = self.frame.project(pose.x_m, pose.y_m)
-            self._s_hint = s
-            self._s_start = s
-            if self._origin_xy is not None and self.frame.closed:
-                self._count_from_origin(map_state, s)
-
-    def _count_from_origin(self, map_state: MapState, s_car_m: float) -> None:
-        """Laps of an explored track count from the start line (the big orange cones nearest
-        the start, else the start itself), the explored lap included."""
-        assert self.frame is not None and self._origin_xy is not None
-        length = self.frame.length_m
-        s_origin, _ = self.frame.project(*self._origin_xy)
-        cones = map_state.cones
-        big = cones.xy_m[cones.colour == int(ConeColour.BIG_ORANGE)] if len(cones) else cones.xy_m
-        if len(big):
-            near = np.hypot(big[:, 0] - self._origin_xy[0], big[:, 1] - self._origin_xy[1])
-            big = big[near < self.config.start_line_search_m]
-        s_line = self.frame.project(*big.mean(axis=0))[0] if len(big) else s_origin
-        self._line_offset_m = (s_line - s_origin) % length
-        self._s_start = s_origin
-        self._progress_m = (s_car_m - s_origin) % length
-        # the loop may close only after the car has passed the start again: whole laps from
-        # the distance driven while exploring
         explored_m = self._explored.explored_m if self._explored is not None else 0.0
-        self._progress_m += length * max(round((explored_m - self._progress_m) / length), 0)
-        logger.info("laps count from the start line %.1f m past the start; %.1f m driven",
-                    self._line_offset_m, self._progress_m)
-
-    def _update_lap(self, s: float) -> None:
-        frame = self.frame
-        if frame is None or not frame.closed:
-            return
-        if self._s_start is None:
-            self._s_start = s
-            self._s_hint = s
-            return
-        assert self._s_hint is not None
-        length = frame.length_m
-        delta = math.remainder(s - self._s_hint, length)
-        self._progress_m += delta
-        if self._line_offset_m is not None:
-            self.lap = max(self.lap, math.floor((self._progress_m - self._line_offset_m) / length))
-            return
-        crossings = math.floor((self._s_start + self._progress_m) / length)
-        if length - self._s_start < self.config.lap_min_fraction * length:
-            crossings -= 1  # started just before the line: its first crossing is no lap
-        self.lap = max(self.lap, crossings)
+        self.laps.reset(self.frame, map_state, self._origin_xy, explored_m)
 
     # ------------------------------------------------------------------ planning
     def plan(self, map_state: MapState, now_s: float) -> Plan:
@@ -502,7 +433,7 @@ class PathPlanner:
         if self._race_worker is not None and self._race_worker.pending:
             self._take_race_line(map_state)
         if self.known is not None:
-            if self._known_frame(map_state) and self._s_hint is None:
+            if self._known_frame(map_state) and self.laps.s_hint_m is None:
                 self._reset_progress(map_state)
         elif self.frame is None or (self.frame_source == "cones" and not self.frame.closed):
             self._frame_from_cones(map_state)
@@ -511,15 +442,15 @@ class PathPlanner:
         frame = self.frame
         if frame is None:
             return self._empty_plan(now_s)
-        if frame.closed or self._s_hint is not None:
-            s0, d0 = frame.project(pose.x_m, pose.y_m, self._s_hint,
+        if frame.closed or self.laps.s_hint_m is not None:
+            s0, d0 = frame.project(pose.x_m, pose.y_m, self.laps.s_hint_m,
                                    self.config.projection_window_m)
             if abs(d0) > 6.0:  # lost the branch: search everywhere
                 s0, d0 = frame.project(pose.x_m, pose.y_m)
         else:
             s0, d0 = frame.project(pose.x_m, pose.y_m)
-        self._update_lap(s0)
-        self._s_hint = s0
+        self.laps.update(frame, s0)
+        self.laps.s_hint_m = s0
         if self.known is not None and self.known.path is not None and self.known.update(
                 s0, KnownPathMission.scale(frame.length_m, self.known.path), pose.speed_mps):
             self.lap = 1  # the mission's one "lap": the controller stops the car, finished

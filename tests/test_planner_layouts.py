@@ -173,6 +173,6 @@ def test_skidpad_crossing_follows_the_branch_being_driven() -> None:
         chosen = plan.candidates[plan.chosen_index][:20]
         d_cone = np.min(np.linalg.norm(chosen[:, None] - cone_xy[None], axis=2))
         assert d_cone > config.car.width_m / 2 + CONE_RADIUS_M
-        progress.append(planner._progress_m)
+        progress.append(planner.laps.progress_m)
     assert np.all(np.diff(progress) > 0.0)
     assert progress[-1] == pytest.approx(frame.length_m, rel=0.1)
