@@ -58,12 +58,10 @@ class Candidate:
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Heading and curvature of polylines by finite differences: ``xy`` (..., K, 2), K >= 3,
-    gives (..., K) each (every polyline on its own, as if alone). The ends take second-order
-    one-sided differences: a first-order one reads the heading half a step along (on the
-    lock's circle, 0.5 m steps: 5 degrees more turned)."""
-    d1 = np.gradient(xy, axis=-2, edge_order=2)
-    d2 = np.gradient(d1, axis=-2, edge_order=2)
+    """Heading and curvature of polylines by finite differences: ``xy`` (..., K, 2) gives
+    (..., K) each (every polyline on its own, as if alone)."""
+    d1 = np.gradient(xy, axis=-2)
+    d2 = np.gradient(d1, axis=-2)
     heading = np.arctan2(d1[..., 1], d1[..., 0])
     speed = np.maximum(np.linalg.norm(d1, axis=-1), 1e-9)
     kappa = (d1[..., 0] * d2[..., 1] - d1[..., 1] * d2[..., 0]) / speed**3
@@ -231,10 +229,10 @@ class ManoeuvreGenerator:
         walls: FloatArray | None = None,
     ) -> list[Candidate]:
         c = self.config
-        _, _, h0, k0 = frame.sample(s0_m)
         if start is not None:
             d0_m, slope0 = float(start[0]), float(start[1])
         else:
+            _, _, h0, k0 = frame.sample(s0_m)
             dpsi = math.remainder(yaw_rad - float(h0), 2.0 * math.pi)
             dpsi = float(np.clip(dpsi, -1.2, 1.2))
             slope0 = math.tan(dpsi) * (1.0 - float(k0) * d0_m)
@@ -261,10 +259,6 @@ class ManoeuvreGenerator:
         s = s0_m + u
         xy_all = frame.frenet_to_xy(s, d_all)
         heading_all, kappa_all = _path_geometry(xy_all)
-        # where the car stands the heading is known exactly (the car's, from the start slope):
-        # a difference over the first step reads it along that step, on a bend into a hairpin
-        # 0.03 rad more turned even at second order
-        heading_all[:, 0] = float(h0) + math.atan2(slope0, 1.0 - float(k0) * d0_m)
         out = None if walls is None or len(walls) == 0 else leaves_through(xy_all, walls)
         return self._grade(offs, s, d_all, xy_all, heading_all, kappa_all, in_h, tree,
                            last_offset_m, speed_mps, margin_m, speed_cap_mps, out)
