@@ -101,15 +101,10 @@ class LapCounter:
             self.s_hint_m = s_m
             return
         assert self.s_hint_m is not None
-        length = frame.length_m
-        self.progress_m += math.remainder(s_m - self.s_hint_m, length)
-        if self.line_offset_m is not None:
-            self.lap = max(self.lap, math.floor((self.progress_m - self.line_offset_m) / length))
-            return
-        crossings = math.floor((self.s_start_m + self.progress_m) / length)
-        if length - self.s_start_m < self.lap_min_fraction * length:
-            crossings -= 1  # started just before the line: its first crossing is no lap
-        self.lap = max(self.lap, crossings)
+        self.progress_m += math.remainder(s_m - self.s_hint_m, frame.length_m)
+        done = self.laps_done(frame)
+        assert done is not None
+        self.lap = max(self.lap, math.floor(done))
 
     def carry_over(self, frame: SplineBaseframe, laps_done: float) -> None:
         """After :meth:`reset` on a new closed ``frame`` (a racing line for the centre line):
