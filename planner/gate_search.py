@@ -344,26 +344,6 @@ class _Search:
                     and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
         return False
 
-    def _joins_one_row(self, sides: tuple[int, int], gates: tuple[tuple[int, int], ...]
-                       ) -> bool:
-        """Whether, with colours, a gate (left, right) ``sides`` joins a cone of known colour
-        that ends its side's row (the way driven and the path's gates so far) to a cone of
-        unknown colour standing where that row goes on (its next cone, :meth:`_in_line`):
-        two cones of one boundary, the second not coloured yet, as blue-blue and
-        yellow-yellow edges are. EUFS Hairpin, autocross: a yellow row's next cone, seen
-        0.5 s before its colour, made a gate with the row's last one, and the path turned out
-        across the row into the infield at 7 m/s."""
-        if not self.coloured:
-            return False
-        for known, unknown, side in ((sides[0], sides[1], 0), (sides[1], sides[0], 1)):
-            if int(self.col[known]) not in (BLUE, YELLOW) or \
-                    int(self.col[unknown]) in (BLUE, YELLOW):
-                continue
-            row = list(dict.fromkeys([*self.rows_driven[side], *(g[side] for g in gates)]))
-            if row and row[-1] == known and self._in_line(row, unknown, ROW_TOLERANCE):
-                return True
-        return False
-
     def _in_line(self, row: list[int], new: int, tolerance: float) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
         its last cone, between half and 1.5 times the last spacing (plus half a metre)
@@ -539,8 +519,6 @@ class _Search:
                 continue  # it spans a boundary (a cone stands in it): two lanes, not one
             if self._continues_the_other_row(sides, p.gates):
                 continue  # the cone it adds is the next of the other side's row
-            if self._joins_one_row(sides, p.gates):
-                continue  # a row's last cone and its next, not coloured yet
             if self._back_the_way_in(a, b, step):
                 continue
             if nxt in p.triangles:

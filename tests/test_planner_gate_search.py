@@ -223,31 +223,6 @@ def test_no_gate_spans_an_infield_past_the_mapped_end_of_a_row(monkeypatch) -> N
     assert np.any(pts[:, 1] < 5.0), pts
 
 
-def test_a_rows_next_cone_not_yet_coloured_makes_no_gate_with_its_last(monkeypatch) -> None:
-    """A lane along +x seen to x = 9 m, the last cone of its yellow row (x = 9) not coloured
-    yet (the camera votes a colour over a few frames), and beyond a 3 m infield on the
-    yellow side another stretch's row of cones seen without colours. The edge from the yellow
-    row's last coloured cone (x = 6) to that uncoloured next one joins two cones of one
-    boundary: no gate. Through it the path turned across the row into the infield and back
-    the other way (EUFS Hairpin, autocross: at 7 m/s toward the inner row it then hit)."""
-    x = np.arange(-3.0, 9.1, 3.0)
-    lane_blue = np.c_[x, np.full(len(x), HALF_WIDTH_M)]
-    lane_yellow = np.c_[x, np.full(len(x), -HALF_WIDTH_M)]
-    x_other = np.arange(-30.0, 12.0, 3.0) + 1.5
-    other = np.c_[x_other, np.full(len(x_other), -HALF_WIDTH_M - 3.0)]
-    xy = np.r_[lane_blue, lane_yellow, other]
-    col = np.r_[np.full(len(x), BLUE), np.full(len(x), YELLOW), np.full(len(x_other), UNKNOWN)]
-    col[len(x) + len(x) - 1] = UNKNOWN  # the yellow row's cone at x = 9
-    pts, _ = gate_search_path(xy, col, np.zeros(2), 0.0, 2.0 * HALF_WIDTH_M)
-    assert pts[-1, 0] > 8.0, pts  # straight on to the lane's last gate
-    assert np.all(np.abs(pts[:, 1]) < 0.5), pts
-    import planner.gate_search as gs
-
-    monkeypatch.setattr(gs._Search, "_joins_one_row", lambda self, sides, gates: False)
-    pts, _ = gate_search_path(xy, col, np.zeros(2), 0.0, 2.0 * HALF_WIDTH_M)
-    assert np.any(pts[:, 1] < -HALF_WIDTH_M), pts  # without the rule: into the infield
-
-
 def test_without_colours_the_march_stops_at_a_lone_cone() -> None:
     """Past the last gate of both sides only the left boundary is mapped (the right one is
     hidden, round a bend). Coloured, the left cones say which side they bound and the march
