@@ -127,8 +127,7 @@ def gate_search_path(
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
         crossed = _crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
         search.behind = {edge: crossing[0] for edge, crossing in crossed.items()}
-        if not search.coloured:  # with colours the rows are the colours'
-            search.rows_driven = _rows_driven(crossed, xy[near], track_width_m)
+        search.rows_driven = _rows_driven(crossed, xy[near], track_width_m)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
@@ -344,14 +343,48 @@ class _Search:
                     and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
         return False
 
-    def _in_line(self, row: list[int], new: int, tolerance: float) -> bool:
+    def _joins_one_row(self, sides: tuple[int, int], gates: tuple[tuple[int, int], ...]
+                       ) -> bool:
+        """Whether, with colours, a gate (left, right) ``sides`` joins the cone of known
+        colour that ends its side's row (the path's gates so far; the way driven before them
+        when they give one cone) to a cone of unknown colour further on along that row's
+        line, at any distance a gate spans (:meth:`_in_line`): two cones of one boundary, the
+        second not coloured yet, as blue-blue and yellow-yellow edges are. A coloured lane
+        ending at 60 m with one uncoloured cone 6-9 m beyond, on its left row's line, had the
+        path end on that line, outside the lane; on EUFS Hairpin (autocross) a yellow row's
+        next cone, mapped 0.5 s before its colour, made a gate with the row's last one and a
+        path across the row. (The way driven goes on a row only when the gates give one cone
+        of it: round a hairpin's end it bends the row's way on away from the row's next
+        cone.)"""
+        if not self.coloured:
+            return False
+        for known, unknown, side in ((sides[0], sides[1], 0), (sides[1], sides[0], 1)):
+            if int(self.col[known]) not in (BLUE, YELLOW) or \
+                    int(self.col[unknown]) in (BLUE, YELLOW):
+                continue
+            row = list(dict.fromkeys(g[side] for g in gates))
+            if len(row) < 2:  # the car's own gate alone: the row it drove along before it
+                row = list(dict.fromkeys([*self.rows_driven[side], *row]))
+            if row and row[-1] == known and \
+                    self._in_line(row, unknown, ROW_TOLERANCE, self.max_gate_m):
+                return True
+        return False
+
+    def _in_line(self, row: list[int], new: int, tolerance: float,
+                 furthest_m: float | None = None) -> bool:
         """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
         its last cone, between half and 1.5 times the last spacing (plus half a metre)
         further, off the row's way on by at most ``tolerance`` times how far on it stands.
         The way on is the line through the row's last two cones turned by its last turn (the
         turn from its last but one step to its last: a row round a bend keeps turning; the
         outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
-        chord, straight on, meets it)."""
+        chord, straight on, meets it).
+
+        With ``furthest_m``, also a cone further on, up to that far, when the row runs
+        straight (its last turn within the tolerance) and the cone stands on its line, as
+        near it as above: a row's next cone but one, or further. A row's way on turned by a
+        bend's turn says nothing that far (FSSIM thin: a yellow row turning 56 degrees into a
+        bend pointed 4.8 m on at the blue row's next cone)."""
         if len(row) < 2:
             return False
         last, before = self.xy[row[-1]], self.xy[row[-2]]
@@ -359,15 +392,25 @@ class _Search:
         spacing = float(math.hypot(*direction))
         if spacing <= 0.0:
             return False
-        heading = math.atan2(direction[1], direction[0])
+        straight = math.atan2(direction[1], direction[0])
+        turn = 0.0
         if len(row) >= 3:
             earlier = before - self.xy[row[-3]]
-            turn = math.remainder(heading - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
-            heading += turn
+            turn = math.remainder(straight - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
         rel = self.xy[new] - last
-        along = float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading))
-        off = abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading)))
-        return 0.5 * spacing <= along <= 1.5 * spacing + 0.5 and off <= tolerance * along
+
+        def along_off(heading: float) -> tuple[float, float]:
+            return (float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading)),
+                    abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading))))
+
+        next_m = 1.5 * spacing + 0.5
+        along, off = along_off(straight + turn)
+        if 0.5 * spacing <= along <= next_m and off <= tolerance * along:
+            return True
+        if furthest_m is None or abs(turn) > math.atan(tolerance):
+            return False
+        along, off = along_off(straight)
+        return next_m < along <= furthest_m and off <= tolerance * along
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
@@ -519,6 +562,8 @@ class _Search:
                 continue  # it spans a boundary (a cone stands in it): two lanes, not one
             if self._continues_the_other_row(sides, p.gates):
                 continue  # the cone it adds is the next of the other side's row
+            if self._joins_one_row(sides, p.gates):
+                continue  # a row's last cone and one further on it, not coloured yet
             if self._back_the_way_in(a, b, step):
                 continue
             if nxt in p.triangles:

@@ -4,6 +4,7 @@ where another stretch runs close beside it, and it goes round a hairpin."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from common.messages import ConeColour
 from common.polyline import nearest_on_polyline, resample
@@ -94,6 +95,34 @@ def test_the_search_goes_round_a_hairpin() -> None:
     distance, _, _, _ = nearest_on_polyline(path, centre, False)
     assert path[-1, 1] > 5.0 and path[-1, 0] < 8.0  # round the hairpin and out of it
     assert np.all(distance < 0.6)
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0])
+@pytest.mark.parametrize("beyond_m", [3.0, 6.0, 7.0, 9.3])
+@pytest.mark.parametrize("off_m", [-0.45, 0.0, 0.45])
+def test_a_rows_last_cone_and_an_uncoloured_cone_on_its_line_are_no_gate(
+        side: float, beyond_m: float, off_m: float) -> None:
+    """A coloured lane whose cones end at 60 m, and one cone not coloured yet ``beyond_m``
+    further on (near) the line of one of its rows: it may be that row's next cone, or the
+    next but one, so the edge from that row's last cone to it runs along a boundary and is no
+    gate. (Up to 9.3 m beyond, within the longest gate, the path ended on the row's line,
+    3.3 m off the lane's centre once marched on.) A diagonal gate from the other row's last
+    cone to it leaves the path inside the lane."""
+    x = np.arange(-6.0, 60.1, 3.0)
+    lone = np.array([60.0 + beyond_m, side * (HALF_WIDTH_M + off_m)])
+    cones = np.r_[np.c_[x, np.full(len(x), HALF_WIDTH_M)],
+                  np.c_[x, np.full(len(x), -HALF_WIDTH_M)], lone[None, :]]
+    colours = np.r_[np.full(len(x), BLUE), np.full(len(x), YELLOW), [UNKNOWN]]
+    path, _ = gate_search_path(cones, colours, np.array([50.0, 0.0]), 0.0, 2.0 * HALF_WIDTH_M)
+    # as the planner asks in the closed loop: the car at the lane's last gate, its path from
+    # the gate behind it, the way it drove (up to a few metres back) known
+    driven = np.c_[np.linspace(20.0, 56.0, 37), np.zeros(37)]
+    marched = exploration_path(cones, colours, (59.2, 0.0), 0.0,
+                               track_width_m=2.0 * HALF_WIDTH_M, behind_m=ENTRY_BEHIND_M,
+                               driven_xy_m=driven)
+    assert path[-1, 0] >= 60.0  # through the lane's last gate
+    for points in (path, marched):  # inside the lane, well off both its rows
+        assert np.all(np.abs(points[:, 1]) < 0.5 * HALF_WIDTH_M)
 
 
 def test_no_gate_ahead_is_the_car_alone() -> None:
