@@ -26,6 +26,7 @@ from scipy.spatial import Delaunay, QhullError
 
 from common.messages import ConeColour
 from common.polyline import nearest_on_polyline
+from planner.gate_rows import crossings, in_line, rows_driven
 
 FloatArray = NDArray[np.float64]
 
@@ -125,9 +126,9 @@ def gate_search_path(
         return nothing
     search = _Search(xy[near], col[near], tri, track_width_m)
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
-        crossed = _crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
+        crossed = crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
         search.behind = {edge: crossing[0] for edge, crossing in crossed.items()}
-        search.rows_driven = _rows_driven(crossed, xy[near], track_width_m)
+        search.rows_driven = rows_driven(crossed, xy[near], track_width_m)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)
     if best is None or len(best.points) < 2:
@@ -165,61 +166,6 @@ def cone_in_gate(a_xy_m: FloatArray, b_xy_m: FloatArray, cones_xy_m: FloatArray)
     inside = (np.abs(t - 0.5) <= 0.5 * CONE_IN_GATE_SPAN) & \
         (off < CONE_IN_GATE_FRACTION * math.sqrt(length2))
     return bool(np.any(inside))
-
-
-def _edges_crossed(xy: FloatArray, simplices: NDArray[np.int32],
-                   path_xy: FloatArray) -> dict[tuple[int, int], float]:
-    """The triangulation's edges (index pairs, lower first) that the polyline ``path_xy``
-    (M, 2) crosses, each with the side it crossed it towards: the sign of the cross product of
-    the edge (lower index to higher) and the path's step (its last crossing's, if several)."""
-    return {edge: crossing[0] for edge, crossing in _crossings(xy, simplices, path_xy).items()}
-
-
-def _crossings(xy: FloatArray, simplices: NDArray[np.int32],
-               path_xy: FloatArray) -> dict[tuple[int, int], tuple[float, float, float]]:
-    """:func:`_edges_crossed`, each edge with the side, where along ``path_xy`` (its segment
-    index plus the fraction of that segment) the path last crossed it, and where along the
-    edge (the fraction of it from its lower cone)."""
-    edges = np.unique(np.sort(np.concatenate([simplices[:, [0, 1]], simplices[:, [1, 2]],
-                                              simplices[:, [2, 0]]]), axis=1), axis=0)
-    p, r = xy[edges[:, 0]][:, None, :], (xy[edges[:, 1]] - xy[edges[:, 0]])[:, None, :]
-    q, u = path_xy[None, :-1, :], np.diff(path_xy, axis=0)[None, :, :]
-
-    def cross(v: FloatArray, w: FloatArray) -> FloatArray:
-        return np.asarray(v[..., 0] * w[..., 1] - v[..., 1] * w[..., 0], np.float64)
-
-    denom = cross(r, u)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = cross(q - p, u) / denom  # along the edge
-        v = cross(q - p, r) / denom  # along the path's segment
-    hit = (np.abs(denom) > 1e-12) & (t >= 0.0) & (t <= 1.0) & (v >= 0.0) & (v <= 1.0)
-    out: dict[tuple[int, int], tuple[float, float, float]] = {}
-    for e in np.flatnonzero(np.any(hit, axis=1)):
-        last = int(np.flatnonzero(hit[e])[-1])
-        out[(int(edges[e, 0]), int(edges[e, 1]))] = (
-            float(np.sign(denom[e, last])), last + float(v[e, last]), float(t[e, last]))
-    return out
-
-
-def _rows_driven(crossed: dict[tuple[int, int], tuple[float, float, float]], xy: FloatArray,
-                 aside_m: float) -> tuple[list[int], list[int]]:
-    """The cones the way driven passed on its left and on its right (index lists, in the
-    order it passed them), from the edges it crossed (:func:`_crossings`) among the cones
-    ``xy`` (N, 2): a step that crosses an edge (lower index to higher) towards its positive
-    side has the lower cone on its left. Only a cone at most ``aside_m`` (m) from where the
-    way crossed counts (a long edge to the row beyond a 3 m infield is crossed too, and its
-    far cone is no cone of the lane). A cone passed on both sides (a path that wandered)
-    counts where last passed."""
-    last: dict[int, tuple[float, int]] = {}
-    for (lo, hi), (side, where, t) in crossed.items():
-        length = float(math.hypot(*(xy[hi] - xy[lo])))
-        left, right = (lo, hi) if side > 0.0 else (hi, lo)
-        for cone, on_left in ((left, 1), (right, 0)):
-            aside = t * length if cone == lo else (1.0 - t) * length
-            if aside <= aside_m and (cone not in last or last[cone][0] < where):
-                last[cone] = (where, on_left)
-    ordered = sorted(last, key=lambda i: last[i][0])
-    return ([i for i in ordered if last[i][1] == 1], [i for i in ordered if last[i][1] == 0])
 
 
 def _centre_points(xy: FloatArray, gates: tuple[tuple[int, int], ...],
@@ -282,10 +228,10 @@ class _Search:
         self.coloured = has_colours(col)
         self.behind: dict[tuple[int, int], float] = {}
         """Edges (lower index first) the car has driven through, with the side it crossed
-        them towards (:func:`_edges_crossed`): never a gate back the other way."""
+        them towards (:func:`planner.gate_rows.edges_crossed`): never a gate back the other way."""
         self.rows_driven: tuple[list[int], list[int]] = ([], [])
         """The cones the way driven passed on its left and on its right, in order
-        (:func:`_rows_driven`): the rows the path's own gates go on."""
+        (:func:`planner.gate_rows.rows_driven`): the rows the path's own gates go on."""
 
     # -- gates ---------------------------------------------------------------------------
     def _gate_cost(self, a: int, b: int, from_xy: FloatArray
@@ -372,45 +318,8 @@ class _Search:
 
     def _in_line(self, row: list[int], new: int, tolerance: float,
                  furthest_m: float | None = None) -> bool:
-        """Whether cone ``new`` stands where ``row`` (cone indices in order) goes on: beyond
-        its last cone, between half and 1.5 times the last spacing (plus half a metre)
-        further, off the row's way on by at most ``tolerance`` times how far on it stands.
-        The way on is the line through the row's last two cones turned by its last turn (the
-        turn from its last but one step to its last: a row round a bend keeps turning; the
-        outer row of a rules-minimum hairpin turns 30 degrees a cone, and the inner row's
-        chord, straight on, meets it).
-
-        With ``furthest_m``, also a cone further on, up to that far, when the row runs
-        straight (its last turn within the tolerance) and the cone stands on its line, as
-        near it as above: a row's next cone but one, or further. A row's way on turned by a
-        bend's turn says nothing that far (FSSIM thin: a yellow row turning 56 degrees into a
-        bend pointed 4.8 m on at the blue row's next cone)."""
-        if len(row) < 2:
-            return False
-        last, before = self.xy[row[-1]], self.xy[row[-2]]
-        direction = last - before
-        spacing = float(math.hypot(*direction))
-        if spacing <= 0.0:
-            return False
-        straight = math.atan2(direction[1], direction[0])
-        turn = 0.0
-        if len(row) >= 3:
-            earlier = before - self.xy[row[-3]]
-            turn = math.remainder(straight - math.atan2(earlier[1], earlier[0]), 2.0 * math.pi)
-        rel = self.xy[new] - last
-
-        def along_off(heading: float) -> tuple[float, float]:
-            return (float(rel[0] * math.cos(heading) + rel[1] * math.sin(heading)),
-                    abs(float(-rel[0] * math.sin(heading) + rel[1] * math.cos(heading))))
-
-        next_m = 1.5 * spacing + 0.5
-        along, off = along_off(straight + turn)
-        if 0.5 * spacing <= along <= next_m and off <= tolerance * along:
-            return True
-        if furthest_m is None or abs(turn) > math.atan(tolerance):
-            return False
-        along, off = along_off(straight)
-        return next_m < along <= furthest_m and off <= tolerance * along
+        """Whether cone ``new`` stands where ``row`` goes on (:func:`planner.gate_rows.in_line`)."""
+        return in_line(self.xy, row, new, tolerance, furthest_m)
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove

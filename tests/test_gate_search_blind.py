@@ -1,6 +1,7 @@
 """Without colours (the camera dead) the gate search tells a lane's two rows of cones apart by
 their shape (planner/gate_search.py): an edge along one row is no gate, nor is an edge with a
-cone standing in it; and the way the car drove says which cones were on its left and right."""
+cone standing in it; and the way the car drove says which cones were on its left and right
+(planner/gate_rows.py)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 import planner.gate_search as gs
 from common.messages import ConeColour
 from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
+from planner.gate_rows import crossings, rows_driven
 from planner.gate_search import cone_in_gate, gate_search_path
 from simulator.hard_tracks import first_arc, hard_track
 
@@ -57,20 +59,19 @@ def test_the_way_driven_gives_the_rows_in_order() -> None:
     xy = np.r_[np.c_[xs, np.full(len(xs), 1.75)], np.c_[xs + 1.5, np.full(len(xs), -1.75)]]
     tri = Delaunay(xy)
     way = np.c_[np.linspace(-1.0, 9.0, 21), np.zeros(21)]
-    left, right = gs._rows_driven(gs._crossings(xy, tri.simplices, way), xy, WIDTH_M)
+    left, right = rows_driven(crossings(xy, tri.simplices, way), xy, WIDTH_M)
     assert left == [0, 1, 2, 3]  # x = 0, 3, 6 and 9 (its edge to x = 7.5 crossed at 8.25)
     assert right == [5, 6, 7]  # x = 1.5, 4.5 and 7.5; not 10.5 (its edges cross y = 0 past 9)
-    back_left, back_right = gs._rows_driven(gs._crossings(xy, tri.simplices, way[::-1]), xy,
-                                           WIDTH_M)
+    back_left, back_right = rows_driven(crossings(xy, tri.simplices, way[::-1]), xy, WIDTH_M)
     assert set(back_left) == set(right) and set(back_right) == set(left)
     assert back_left == sorted(back_left, reverse=True)  # driven the other way round
     # an edge from the lane's right cone up to a cone 4.5 m beyond its left one (across an
     # infield) is crossed too: that far cone is on the left, but no cone of the lane
     xy = np.array([[0.0, 1.5], [0.0, -1.5], [2.0, 4.5]])
-    crossed = gs._crossings(xy, Delaunay(xy).simplices, np.array([[-1.0, 0.0], [1.5, 0.0]]))
+    crossed = crossings(xy, Delaunay(xy).simplices, np.array([[-1.0, 0.0], [1.5, 0.0]]))
     assert set(crossed) == {(0, 1), (1, 2)}
-    assert gs._rows_driven(crossed, xy, WIDTH_M) == ([0], [1])
-    assert gs._rows_driven(crossed, xy, np.inf) == ([0, 2], [1])
+    assert rows_driven(crossed, xy, WIDTH_M) == ([0], [1])
+    assert rows_driven(crossed, xy, np.inf) == ([0, 2], [1])
 
 
 @pytest.fixture(scope="module")

@@ -217,13 +217,13 @@ def test_gates_the_car_drove_through_are_never_ahead() -> None:
 def test_the_trace_blocks_only_the_edges_it_crossed() -> None:
     from scipy.spatial import Delaunay
 
-    from planner.gate_search import _edges_crossed
+    from planner.gate_rows import edges_crossed
 
     xy = np.array([[0.0, 0.0], [4.0, 0.0], [0.0, 4.0], [4.0, 4.0]])
     tri = Delaunay(xy)
-    crossed = _edges_crossed(xy, tri.simplices, np.array([[2.0, -1.0], [2.0, 1.0]]))
+    crossed = edges_crossed(xy, tri.simplices, np.array([[2.0, -1.0], [2.0, 1.0]]))
     assert crossed == {(0, 1): 1.0}  # the bottom edge only, crossed towards its left
-    assert _edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == {}
+    assert edges_crossed(xy, tri.simplices, np.array([[-1.0, -1.0], [-1.0, 5.0]])) == {}
 
 
 def test_no_gate_spans_an_infield_past_the_mapped_end_of_a_row(monkeypatch) -> None:
