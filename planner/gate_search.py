@@ -53,9 +53,10 @@ CONE_IN_GATE_FRACTION = 0.3
 ``CONE_IN_GATE_SPAN`` (fraction of its length), stands in it: the edge is no gate."""
 CONE_IN_GATE_SPAN = 0.6
 ROW_TOLERANCE = 0.25
-"""Without colours, a cone that stands off a row's way on (:meth:`_Search._in_line`) by at
-most this fraction of how far it stands beyond the row's last cone goes on that row (about
-14 degrees)."""
+"""A cone that stands off a row's way on (:func:`planner.gate_rows.in_line`) by at most this
+fraction of how far it stands beyond the row's last cone goes on that row (about 14 degrees):
+without colours, the other side's row (:meth:`_Search._continues_the_other_row`); with
+colours, the row of an uncoloured cone (:meth:`_Search._joins_one_row`)."""
 OWN_ROW_TOLERANCE = 0.7
 """The same for the row a gate puts the cone on (about 35 degrees): a cone in line with the
 other side's row is that row's unless its own row may as well bend to it (a row seen over two
@@ -285,8 +286,8 @@ class _Search:
             other_row = list(dict.fromkeys([*self.rows_driven[other],
                                             *(g[other] for g in gates)]))
             own_row = list(dict.fromkeys([*self.rows_driven[own], *(g[own] for g in gates)]))
-            return (self._in_line(other_row, new, ROW_TOLERANCE)
-                    and not self._in_line(own_row, new, OWN_ROW_TOLERANCE))
+            return (in_line(self.xy, other_row, new, ROW_TOLERANCE)
+                    and not in_line(self.xy, own_row, new, OWN_ROW_TOLERANCE))
         return False
 
     def _joins_one_row(self, sides: tuple[int, int], gates: tuple[tuple[int, int], ...]
@@ -294,14 +295,14 @@ class _Search:
         """Whether, with colours, a gate (left, right) ``sides`` joins the cone of known
         colour that ends its side's row (the path's gates so far; the way driven before them
         when they give one cone) to a cone of unknown colour further on along that row's
-        line, at any distance a gate spans (:meth:`_in_line`): two cones of one boundary, the
-        second not coloured yet, as blue-blue and yellow-yellow edges are. A coloured lane
-        ending at 60 m with one uncoloured cone 6-9 m beyond, on its left row's line, had the
-        path end on that line, outside the lane; on EUFS Hairpin (autocross) a yellow row's
-        next cone, mapped 0.5 s before its colour, made a gate with the row's last one and a
-        path across the row. (The way driven goes on a row only when the gates give one cone
-        of it: round a hairpin's end it bends the row's way on away from the row's next
-        cone.)"""
+        line, at any distance a gate spans (:func:`planner.gate_rows.in_line`): two cones of
+        one boundary, the second not coloured yet, as blue-blue and yellow-yellow edges are.
+        A coloured lane ending at 60 m with one uncoloured cone 6-9 m beyond, on its left
+        row's line, had the path end on that line, outside the lane; on EUFS Hairpin
+        (autocross) a yellow row's next cone, mapped 0.5 s before its colour, made a gate
+        with the row's last one and a path across the row. (The way driven goes on a row
+        only when the gates give one cone of it: round a hairpin's end it bends the row's
+        way on away from the row's next cone.)"""
         if not self.coloured:
             return False
         for known, unknown, side in ((sides[0], sides[1], 0), (sides[1], sides[0], 1)):
@@ -312,14 +313,9 @@ class _Search:
             if len(row) < 2:  # the car's own gate alone: the row it drove along before it
                 row = list(dict.fromkeys([*self.rows_driven[side], *row]))
             if row and row[-1] == known and \
-                    self._in_line(row, unknown, ROW_TOLERANCE, self.max_gate_m):
+                    in_line(self.xy, row, unknown, ROW_TOLERANCE, self.max_gate_m):
                 return True
         return False
-
-    def _in_line(self, row: list[int], new: int, tolerance: float,
-                 furthest_m: float | None = None) -> bool:
-        """Whether cone ``new`` stands where ``row`` goes on (:func:`planner.gate_rows.in_line`)."""
-        return in_line(self.xy, row, new, tolerance, furthest_m)
 
     def _back_the_way_in(self, a: int, b: int, step: FloatArray) -> bool:
         """Whether a step (2,) through edge (a, b) crosses it against the way the car drove
