@@ -423,9 +423,8 @@ class TentativeConfig:
     SLAM's slip noise (``mapper.slam.lateral_slip_sigma_fraction``,
     ``wheel_speed_sigma_fraction``) is what keeps the explored lap's drift where it was with the
     landmarks alone (FSG, 16 seeds: mean pose RMSE 0.127 m with the old noise, 0.096 m with
-    it). A narrow passage among tentative cones is slowed
-    (``planner.exploration_narrow_room_m``): EUFS small_track_2's 2.5 m wide bend hit its outer
-    cones at the speed a farther view allowed."""
+    it). A narrow passage is slowed (``planner.exploration_narrow_room_m``): EUFS
+    small_track_2's 2.5 m wide bend hit its outer cones at the speed a farther view allowed."""
     landmark_gate_m: float = 1.0
     """A camera cone this near (m) a landmark is that landmark (its colour vote only)."""
     gate_m: float = 1.0

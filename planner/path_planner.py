@@ -219,9 +219,8 @@ class PathPlanner:
         self.frame = frame
         self.frame_source = source
         self._frame_msg = frame.to_message()
-        seen = map_state.cones  # a narrow passage is slowed only when tentative cones extend it
         self._speed_mps = self._profile(frame, car_xy=(map_state.pose.x_m, map_state.pose.y_m),
-                                        cones_xy_m=seen.xy_m if np.any(seen.ids < 0) else None)
+                                        cones_xy_m=map_state.cones.xy_m)
         if source == "waypoints":
             self.book.set_points(frame.xy_m[:: max(int(c.waypoint_spacing_m / frame.step_m), 1)],
                                  closed)

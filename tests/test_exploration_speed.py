@@ -246,3 +246,41 @@ def test_the_late_cover_spans_every_plan_the_supervisor_lets_the_car_follow_at_s
     config = AppConfig()
     assert (config.planner.exploration_late_cover_s
             >= config.controller.safety.plan_timeout_s > 0.0)
+
+
+@pytest.mark.parametrize("tentative", [False, True])
+def test_the_planner_slows_a_narrow_passage_whether_or_not_the_camera_adds_cones(
+        tentative: bool) -> None:
+    """The exploring planner's own profile through the pinch of a lane of landmarks is held to
+    ``exploration_narrow_speed_mps``, with the LiDAR's landmarks alone as with a camera cone
+    (id < 0) in the map too: a limit that came and went with the camera's tentative cones made
+    the speed jump between plans (EUFS small_track_2, seed 3: 7.4 m/s into its 2.5 m bend, a
+    fallback at 4 m/s, 0.008 m from a cone)."""
+    from common.messages import ConeColour, ConeMap, MapState, PoseEstimate
+    from orchestrator.config import AppConfig
+    from planner.path_planner import PathPlanner
+
+    config = AppConfig()
+    lane = _lane(3.5, 2.5, length_m=30.0)
+    n = len(lane)
+    half = n // 2
+    colours = np.r_[np.full(half, int(ConeColour.BLUE)), np.full(n - half, int(ConeColour.YELLOW))]
+    ids = np.arange(n, dtype=np.int64)
+    if tentative:  # one camera cone beyond the lane's end, on its left side
+        lane = np.vstack([lane, [33.0, 1.75]])
+        colours = np.append(colours, int(ConeColour.BLUE))
+        ids = np.append(ids, -1)
+    m = len(lane)
+    cones = ConeMap(xy_m=lane, covariance=np.tile(np.eye(2) * 0.01, (m, 1, 1)), colour=colours,
+                    size=np.ones(m, np.int64), confidence=np.ones(m), ids=ids)
+    pose = PoseEstimate(0.0, 4.0, 0.0, 0.0, 5.0, 0.0, 0.0, np.eye(3) * 1e-4)
+    planner = PathPlanner(config.planner, config.car)
+    state = MapState(0.0, pose, cones, loop_closed=False)
+    planner.start_autonomous(state)
+    assert planner.explore(state) and planner.exploring
+    frame = planner.frame
+    assert frame is not None
+    s_pinch = np.array([frame.project(x, 0.0)[0] for x in np.arange(19.0, 23.5, 0.5)])
+    assert np.all(planner.speed_at(s_pinch) <= config.planner.exploration_narrow_speed_mps + 1e-9)
+    s_open = np.array([frame.project(x, 0.0)[0] for x in (8.0, 9.0, 10.0)])
+    assert np.all(planner.speed_at(s_open) > config.planner.exploration_narrow_speed_mps)
