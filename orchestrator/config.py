@@ -135,3 +135,13 @@ def validate(config: AppConfig) -> None:
         value = getattr(car, name)
         if not (math.isfinite(value) and value > 0.0):
             raise ConfigError(f"config: 'car.{name}' must be a positive number, got {value!r}")
+    planner = config.planner
+    for name in ("lateral_safety_factor", "exploration_lateral_safety_factor"):
+        value = getattr(planner, name)
+        if not (math.isfinite(value) and 0.0 < value <= 1.0):
+            raise ConfigError(f"config: 'planner.{name}' must be in (0, 1], got {value!r}")
+    if not planner.exploration_tight_room_m < planner.exploration_wide_room_m:
+        raise ConfigError("config: 'planner.exploration_tight_room_m' must be below "
+                          "'planner.exploration_wide_room_m', got "
+                          f"{planner.exploration_tight_room_m!r} and "
+                          f"{planner.exploration_wide_room_m!r}")

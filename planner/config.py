@@ -163,6 +163,20 @@ class PlannerConfig:
     of the track) does not set the speed profile; the manoeuvre's own curvature is checked.
     Short: the path starts at the gate beside the car, and a bend that begins a few metres
     ahead (the community layouts 'thin', 'small_track_2') must slow the car (3 m hit a cone)."""
+    exploration_lateral_safety_factor: float = 0.7
+    """While exploring, the fraction of the car's lateral limit the profile plans with where
+    the path has room (``exploration_wide_room_m``); ``lateral_safety_factor`` where it has
+    the room of a lane as narrow as the rules allow (``exploration_tight_room_m``), in
+    proportion between (:func:`planner.exploration_speed.room_lateral_factor`). 0.7
+    everywhere took the community layouts' explored laps from 1.422x to 1.384x (autocross,
+    seeds 1-3, all clean), but in EPFL's 3 m lanes it hit a cone (track 4 seed 1, running
+    wide out of a bend at 9.5 m/s) and ran no faster."""
+    exploration_wide_room_m: float = 1.5
+    """The room (m, :func:`planner.exploration_speed.passage_room_m`) from which the exploring
+    profile plans with ``exploration_lateral_safety_factor``: about a 3.4 m lane's middle."""
+    exploration_tight_room_m: float = 1.1
+    """The room (m) up to which it plans with ``lateral_safety_factor``: the middle of the
+    rules' narrowest lane (3 m between cone centres) has 1.08 m."""
     exploration_narrow_room_m: float = 0.8
     """While exploring, the path is a narrow passage where it could move less than half this
     (m) to one side before the car's body comes within the manoeuvres' full margin of a cone

@@ -7,7 +7,9 @@ cover (a plan followed that late, ``planner.exploration_late_cover_s``) and then
 safety supervisor's controlled stop (its reaction, margin and deceleration: the room a late
 plan must leave, handed in by Main) within the frame's remaining length. Nothing else caps the
 pace but a sanity top speed (``planner.exploration_speed_mps``) and the friction circle, the
-steering's rate and its lock on the path's curvature (:mod:`planner.speed_profile`). How far
+steering's rate and its lock on the path's curvature (:mod:`planner.speed_profile`), the
+friction circle at a share of the lateral limit that grows with the room beside the path
+(:func:`room_lateral_factor`), and a narrow passage's speed. How far
 ahead the cones are seen (the perception's range, about 14-15 m from the car with the
 simulated VLP-16 low at the front) thus sets the pace on the straights.
 
@@ -265,31 +267,80 @@ ROOM_STEP_M = 0.5
 circles covering the car's body are 0.58 m apart."""
 
 
-def narrow_passage_limit_mps(frame: SplineBaseframe, cones_xy_m: FloatArray | None,
-                             generator: ManoeuvreGenerator, config: PlannerConfig
-                             ) -> FloatArray:
-    """:func:`narrow_passage_speed_mps` along the exploring ``frame`` among ``cones_xy_m``
-    (N, 2): its room measured every :data:`ROOM_STEP_M` with the manoeuvres' circles and full
-    margin (``generator``) over their widest offsets (``offsets_wide_max_m``), each point
-    taking the lesser room of the measured points on either side; narrow below
-    ``exploration_narrow_room_m``, driven at ``exploration_narrow_speed_mps``. A narrow room
-    of 0 or no cones: no limit. The planner hands the map's cones on every plan, landmarks and
-    the camera's tentative cones alike: a limit that held only while tentative cones were in
-    the map came and went between plans, and the car sped up into a narrow bend between
-    them (EUFS small_track_2, seed 3: 7.4 m/s, then a fallback capped at 4 m/s, 0.008 m from a
-    cone)."""
+def passage_room_along_m(frame: SplineBaseframe, cones_xy_m: FloatArray | None,
+                         generator: ManoeuvreGenerator, config: PlannerConfig
+                         ) -> FloatArray | None:
+    """The room (M,) (m) at each point of the exploring ``frame`` among ``cones_xy_m`` (N, 2)
+    (:func:`passage_room_m`): measured every :data:`ROOM_STEP_M` with the manoeuvres' circles
+    and full margin (``generator``) over their widest offsets (``offsets_wide_max_m``), each
+    point taking the lesser room of the measured points on either side. None without cones."""
     m = len(frame.s_m)
-    c = config
-    if cones_xy_m is None or len(cones_xy_m) == 0 or c.exploration_narrow_room_m <= 0.0:
-        return np.full(m, np.inf)
+    if cones_xy_m is None or len(cones_xy_m) == 0 or m == 0:
+        return None
     stride = max(int(round(ROOM_STEP_M / frame.step_m)), 1)
     idx = np.arange(0, m, stride)
     if idx[-1] != m - 1:
         idx = np.append(idx, m - 1)
     room = passage_room_m(frame.xy_m[idx], frame.heading_rad[idx], cones_xy_m,
                           generator.circle_offsets_m, generator.required_m,
-                          c.offsets_wide_max_m)
+                          config.offsets_wide_max_m)
     k = np.searchsorted(idx, np.arange(m), side="right") - 1  # the measured point behind
-    room_at = np.minimum(room[k], room[np.minimum(k + 1, len(idx) - 1)])
-    return narrow_passage_speed_mps(room_at, c.exploration_narrow_room_m,
+    return np.minimum(room[k], room[np.minimum(k + 1, len(idx) - 1)])
+
+
+def narrow_passage_limit_mps(frame: SplineBaseframe, cones_xy_m: FloatArray | None,
+                             generator: ManoeuvreGenerator, config: PlannerConfig,
+                             room_m: FloatArray | None = None) -> FloatArray:
+    """:func:`narrow_passage_speed_mps` along the exploring ``frame`` among ``cones_xy_m``
+    (N, 2), with its room from :func:`passage_room_along_m` (or ``room_m`` (M,), that room
+    measured already): narrow below ``exploration_narrow_room_m``, driven at
+    ``exploration_narrow_speed_mps``. A narrow room of 0 or no cones: no limit. The planner
+    hands the map's cones on every plan, landmarks and the camera's tentative cones alike: a
+    limit that held only while tentative cones were in the map came and went between plans,
+    and the car sped up into a narrow bend between them (EUFS small_track_2, seed 3: 7.4 m/s,
+    then a fallback capped at 4 m/s, 0.008 m from a cone)."""
+    c = config
+    if room_m is None:
+        room_m = passage_room_along_m(frame, cones_xy_m, generator, c)
+    if room_m is None or c.exploration_narrow_room_m <= 0.0:
+        return np.full(len(frame.s_m), np.inf)
+    return narrow_passage_speed_mps(room_m, c.exploration_narrow_room_m,
                                     c.exploration_narrow_speed_mps)
+
+
+def room_lateral_factor(room_m: ArrayLike, config: PlannerConfig) -> FloatArray:
+    """The fraction of the car's lateral limit the exploring profile plans with where the path
+    has ``room_m`` (m, :func:`passage_room_m`): ``lateral_safety_factor`` up to
+    ``exploration_tight_room_m`` (a lane as narrow as the rules allow),
+    :func:`wide_lateral_factor` from ``exploration_wide_room_m`` on, in proportion between.
+    At speed in a bend the car strays from its plan by 0.1-0.5 m (more as the plans
+    move with the cones coming into view); a wide lane has room for that, the rules' 3 m lane
+    does not."""
+    c = config
+    span = max(c.exploration_wide_room_m - c.exploration_tight_room_m, 1e-9)
+    share = np.clip((np.asarray(room_m, np.float64) - c.exploration_tight_room_m) / span,
+                    0.0, 1.0)
+    return np.asarray(c.lateral_safety_factor + share * (
+        wide_lateral_factor(c) - c.lateral_safety_factor), np.float64)
+
+
+def wide_lateral_factor(config: PlannerConfig) -> float:
+    """The exploring profile's fraction of the lateral limit where the path has room:
+    ``exploration_lateral_safety_factor``, never less than ``lateral_safety_factor`` (a tuned
+    ``lateral_safety_factor`` above it holds everywhere)."""
+    return max(config.exploration_lateral_safety_factor, config.lateral_safety_factor)
+
+
+def room_scaled_curvature(kappa_1pm: ArrayLike, room_m: FloatArray | None,
+                          config: PlannerConfig) -> FloatArray:
+    """The curvature (M,) (1/m) the exploring profile's friction circle reads for the path's
+    ``kappa_1pm`` (M,) where it has ``room_m`` (M,) (m; None: room everywhere): scaled by
+    :func:`wide_lateral_factor` over :func:`room_lateral_factor`. A point mass
+    planned at that factor of the lateral limit then corners, and brakes into and through a
+    bend, as one planned at the room's own factor would: where the lane is as narrow as the
+    rules allow, exactly as with ``lateral_safety_factor`` alone."""
+    kappa = np.asarray(kappa_1pm, np.float64)
+    if room_m is None:
+        return kappa.copy()
+    factor = room_lateral_factor(room_m, config)
+    return np.asarray(kappa * (wide_lateral_factor(config) / factor), np.float64)

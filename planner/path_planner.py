@@ -27,7 +27,10 @@ from planner.exploration_speed import (
     exploring_curvature,
     exploring_speed_limit_mps,
     narrow_passage_limit_mps,
+    passage_room_along_m,
+    room_scaled_curvature,
     view_speed_mps,
+    wide_lateral_factor,
 )
 from planner.explored_lap import ExploredLap
 from planner.exploring_line import steerable_frame
@@ -81,6 +84,13 @@ class PathPlanner:
             else c.lateral_safety_factor
         self.limits = SpeedLimits.from_car(car, c.friction_safety_factor, top_speed,
                                            lateral_factor=lateral)
+        self.exploring_limits = SpeedLimits.from_car(
+            car, c.friction_safety_factor, top_speed,
+            lateral_factor=wide_lateral_factor(c))
+        """The exploring profile's limits: the lateral one where the path has room, which the
+        profile lowers where it has less (:func:`planner.exploration_speed.room_scaled_curvature`).
+        A manoeuvre's own curvature keeps ``self.limits`` (its room is not measured: with
+        these, ``hard:hairpins`` seed 2 passed a cone by 0.004 m instead of 0.032 m)."""
         self.frame: SplineBaseframe | None = None
         self.frame_source = ""
         self.track_model: TrackModel | None = None
@@ -398,11 +408,14 @@ class PathPlanner:
             if car_xy is not None:
                 self.views_ahead_m.append(view_m)
             extra = np.minimum(extra, limit)
+            room = passage_room_along_m(frame, cones_xy_m, self.generator, c)
             extra = np.minimum(extra, narrow_passage_limit_mps(frame, cones_xy_m,
-                                                               self.generator, c))
+                                                               self.generator, c, room))
+            kappa = room_scaled_curvature(kappa, room, c)
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
-        return forward_backward_speed_mps(kappa, ds, self.limits, frame.closed,
+        limits = self.exploring_limits if exploring else self.limits
+        return forward_backward_speed_mps(kappa, ds, limits, frame.closed,
                                           v_end_mps=v_end, v_limit_mps=extra)
 
     def speed_at(self, s_m: FloatArray) -> FloatArray:

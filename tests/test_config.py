@@ -52,6 +52,11 @@ def test_int_accepted_for_float(tmp_path: Path) -> None:
         ("car = 3\n", ["'car' is a section"]),
         ("[car\n", ["not valid TOML"]),
         ("[car]\nwheelbase_m = -1.0\n", ["car.wheelbase_m", "positive"]),
+        ("[planner]\nexploration_lateral_safety_factor = 0.0\n",
+         ["planner.exploration_lateral_safety_factor", "(0, 1]"]),
+        ("[planner]\nlateral_safety_factor = 1.2\n", ["planner.lateral_safety_factor", "(0, 1]"]),
+        ("[planner]\nexploration_tight_room_m = 1.5\n",
+         ["planner.exploration_tight_room_m", "below", "exploration_wide_room_m"]),
     ],
 )
 def test_bad_config_one_line(tmp_path: Path, text: str, fragments: list[str]) -> None:
