@@ -331,16 +331,28 @@ def wide_lateral_factor(config: PlannerConfig) -> float:
     return max(config.exploration_lateral_safety_factor, config.lateral_safety_factor)
 
 
+ROOM_WINDOW_M = 2.5
+"""The lateral factor reads the least room within this (m) either side along the path: half
+the rules' longest cone spacing (5 m), so that between two cones of a lane no wider than the
+rules' narrowest (where the room peaks: 1.12 m in a 3 m lane's bend, 0.73 m abreast its cones)
+it is the lane's, not the gap's."""
+
+
 def room_scaled_curvature(kappa_1pm: ArrayLike, room_m: FloatArray | None,
-                          config: PlannerConfig) -> FloatArray:
+                          config: PlannerConfig, step_m: float) -> FloatArray:
     """The curvature (M,) (1/m) the exploring profile's friction circle reads for the path's
-    ``kappa_1pm`` (M,) where it has ``room_m`` (M,) (m; None: room everywhere): scaled by
-    :func:`wide_lateral_factor` over :func:`room_lateral_factor`. A point mass
+    ``kappa_1pm`` (M,) (samples ``step_m`` apart) where it has ``room_m`` (M,) (m; None: room
+    everywhere): scaled by :func:`wide_lateral_factor` over :func:`room_lateral_factor` of the
+    least room within :data:`ROOM_WINDOW_M`. A point mass
     planned at that factor of the lateral limit then corners, and brakes into and through a
     bend, as one planned at the room's own factor would: where the lane is as narrow as the
     rules allow, exactly as with ``lateral_safety_factor`` alone."""
     kappa = np.asarray(kappa_1pm, np.float64)
     if room_m is None:
         return kappa.copy()
-    factor = room_lateral_factor(room_m, config)
+    from scipy.ndimage import minimum_filter1d  # local: only the exploring profile needs it
+
+    half = max(int(round(ROOM_WINDOW_M / max(step_m, 1e-9))), 0)
+    least = minimum_filter1d(np.asarray(room_m, np.float64), 2 * half + 1, mode="nearest")
+    factor = room_lateral_factor(least, config)
     return np.asarray(kappa * (wide_lateral_factor(config) / factor), np.float64)

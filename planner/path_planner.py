@@ -411,7 +411,7 @@ class PathPlanner:
             room = passage_room_along_m(frame, cones_xy_m, self.generator, c)
             extra = np.minimum(extra, narrow_passage_limit_mps(frame, cones_xy_m,
                                                                self.generator, c, room))
-            kappa = room_scaled_curvature(kappa, room, c)
+            kappa = room_scaled_curvature(kappa, room, c, frame.step_m)
         if math.isfinite(stop_s_m):
             extra = np.where(frame.s_m >= stop_s_m, 0.0, extra)
         limits = self.exploring_limits if exploring else self.limits
