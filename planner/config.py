@@ -170,7 +170,8 @@ class PlannerConfig:
     proportion between (:func:`planner.exploration_speed.room_lateral_factor`). 0.7
     everywhere took the community layouts' explored laps from 1.422x to 1.384x (autocross,
     seeds 1-3, all clean), but in EPFL's 3 m lanes it hit a cone (track 4 seed 1, running
-    wide out of a bend at 9.5 m/s) and ran no faster."""
+    wide out of a bend at 9.5 m/s) and ran no faster. Graded by the room: 1.382x, EPFL's
+    1.502x -> 1.506x, all clean (``docs/driving.md``, "Cornering by the room")."""
     exploration_wide_room_m: float = 1.5
     """The room (m, :func:`planner.exploration_speed.passage_room_m`) from which the exploring
     profile plans with ``exploration_lateral_safety_factor``: about a 3.4 m lane's middle."""
