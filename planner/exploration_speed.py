@@ -6,10 +6,10 @@ they end) the speed at arc length ``s`` is at most what lets the car drive on fo
 cover (a plan followed that late, ``planner.exploration_late_cover_s``) and then make the
 safety supervisor's controlled stop (its reaction, margin and deceleration: the room a late
 plan must leave, handed in by Main) within the frame's remaining length. Nothing else caps the
-pace but a sanity top speed (``planner.exploration_speed_mps``) and the friction circle, the
-steering's rate and its lock on the path's curvature (:mod:`planner.speed_profile`), the
-friction circle at a share of the lateral limit that grows with the room beside the path
-(:func:`room_lateral_factor`), and a narrow passage's speed. How far
+pace but a sanity top speed (``planner.exploration_speed_mps``), a narrow passage's speed,
+and the friction circle, the steering's rate and its lock on the path's curvature
+(:mod:`planner.speed_profile`), the friction circle at a share of the lateral limit that
+grows with the room beside the path (:func:`room_lateral_factor`). How far
 ahead the cones are seen (the perception's range, about 14-15 m from the car with the
 simulated VLP-16 low at the front) thus sets the pace on the straights.
 
@@ -343,10 +343,10 @@ def room_scaled_curvature(kappa_1pm: ArrayLike, room_m: FloatArray | None,
     """The curvature (M,) (1/m) the exploring profile's friction circle reads for the path's
     ``kappa_1pm`` (M,) (samples ``step_m`` apart) where it has ``room_m`` (M,) (m; None: room
     everywhere): scaled by :func:`wide_lateral_factor` over :func:`room_lateral_factor` of the
-    least room within :data:`ROOM_WINDOW_M`. A point mass
-    planned at that factor of the lateral limit then corners, and brakes into and through a
-    bend, as one planned at the room's own factor would: where the lane is as narrow as the
-    rules allow, exactly as with ``lateral_safety_factor`` alone."""
+    least room within :data:`ROOM_WINDOW_M`. A point mass planned at that factor of the
+    lateral limit then corners, and brakes into and through a bend, as one planned at the
+    room's own factor would: where the lane is as narrow as the rules allow, exactly as with
+    ``lateral_safety_factor`` alone."""
     kappa = np.asarray(kappa_1pm, np.float64)
     if room_m is None:
         return kappa.copy()
