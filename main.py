@@ -71,10 +71,12 @@ def build_parser(command: str | None = None, *, complete: bool = True
     benchmark's does), so ``--help`` imports no benchmark. ``complete`` loads them all now, for
     code that walks the whole parser; :func:`cli` leaves them to the parse.
     """
+    # the common options leave no default of their own: a nested command (``bench NAME``,
+    # ``decode KIND``) would otherwise put its default over the value given before NAME
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--config", metavar="FILE", default=None,
+    common.add_argument("--config", metavar="FILE", default=argparse.SUPPRESS,
                         help="TOML file overriding the default configuration")
-    common.add_argument("-v", "--verbose", action="count", default=0,
+    common.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
                         help="more log output (-vv for debug)")
 
     parser = argparse.ArgumentParser(
@@ -84,6 +86,7 @@ def build_parser(command: str | None = None, *, complete: bool = True
         epilog="'COMMAND --help' gives a command's options. Documentation: README.md and docs/ "
         "('mkdocs serve').",
     )
+    parser.set_defaults(config=None, verbose=0)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     modules = [importlib.import_module(f"{package}.cli") for package in COMMAND_PACKAGES

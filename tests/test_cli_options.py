@@ -111,6 +111,11 @@ GOOD = [
     (["bench", "nees", "--seeds", "0-2,7"], {"seeds": [0, 1, 2, 7]}),
     (["bench", "nees"], {"seeds": [1, 2, 3, 4, 5, 6]}),
     (["bench", "render"], {"size": (1280, 720)}),
+    # the common options count wherever they stand, before a nested command's NAME too
+    (["sim"], {"config": None, "verbose": 0}),
+    (["bench", "--config", "f.toml", "trackdrive"], {"config": "f.toml", "verbose": 0}),
+    (["bench", "trackdrive", "--config", "f.toml", "-v"], {"config": "f.toml", "verbose": 1}),
+    (["decode", "-vv", "--config", "g.toml", "nmea", "x.nmea"], {"config": "g.toml", "verbose": 2}),
 ]
 
 
