@@ -14,7 +14,7 @@ from __future__ import annotations
 import collections
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +55,16 @@ class Candidate:
     car come nearer a cone than the near margin (``cone_clearance_near_m``, or what the car has
     where it stands, if less), by more than the circles overstate the body's reach
     (``circle_overreach_m``); inf: clear all the way."""
+    hit_m: float = math.inf
+    """How far along it (m) it first comes nearer a cone than the hard margin; inf: never."""
+    bent_m: float = math.inf
+    """How far along it (m) it first bends beyond the steering's limit; inf: never."""
+    cost_before_conflict: float = 0.0
+    """Its cost with the room to the cones counted only before its first conflict (the
+    nearer of ``hit_m`` and ``bent_m``): how a far conflict's candidates are graded."""
+    stand_before_m: float = math.inf
+    """Taken for a conflict far ahead (:meth:`ManoeuvreGenerator.generate`): the targets stand
+    before this arc length (m) from its start; inf: driven to its end."""
 
 
 def _path_geometry(xy: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -131,6 +141,7 @@ class ManoeuvreGenerator:
         start: tuple[float, float] | None = None,
         speed_margin: bool = False,
         walls: FloatArray | None = None,
+        far_conflicts: bool = True,
     ) -> tuple[list[Candidate], int]:
         """Candidates from Frenet (s0, d0) with the car's yaw; the chosen one's index (-1 when
         none is feasible). ``cones_xy_m`` (N, 2) are the obstacles (world frame).
@@ -145,8 +156,12 @@ class ManoeuvreGenerator:
         centimetres: a rules-minimum hairpin leaves no more room than that to a car placed on
         its centreline). Each family's rejections are counted in :attr:`rejections`
         (``family: check``). ``walls`` (W, 2, 2): the lane's boundaries a candidate may not
-        leave through (:mod:`planner.boundary_walls`; refused as ``boundary``)."""
+        leave through (:mod:`planner.boundary_walls`; refused as ``boundary``).
+        ``far_conflicts``: with no candidate clear all along, one whose only conflict lies
+        beyond the car's commitment may be taken (:meth:`_far_conflict`; also
+        ``far_conflict_stop``)."""
         tree = cKDTree(cones_xy_m) if len(cones_xy_m) else None
+        far_conflicts = far_conflicts and self.config.far_conflict_stop
         cands: list[Candidate] = []
         for family, offsets, horizon, cap, margin in self._families(speed_mps, speed_margin):
             cands = self._family(frame, s0_m, d0_m, yaw_rad, speed_mps, tree, last_offset_m,
@@ -159,6 +174,10 @@ class ManoeuvreGenerator:
                     self.rejections[f"{family}: {cand.reason.split(' ')[0]}"] += 1
             if feasible:
                 return cands, min(feasible, key=lambda i: cands[i].cost)
+            if family == "wide" and far_conflicts:
+                far = self._far_conflict(cands, horizon, speed_mps)
+                if far is not None:
+                    return cands, far
             if family == "shortest":
                 # none within the curvature limit: the least bent collision-free one (the car
                 # is slow there and steers at its limit), so a track at the car's limit does
@@ -171,6 +190,39 @@ class ManoeuvreGenerator:
         if clear:
             return cands, min(clear, key=lambda i: (cands[i].max_curvature_1pm, cands[i].cost))
         return cands, -1
+
+    def commit_m(self, horizon_m: float, speed_mps: float) -> float:
+        """How far along a manoeuvre (m) the car is committed to it: its shaped part (the
+        horizon), and what it drives in ``late_cover_s`` and then needs to stop from
+        ``speed_mps`` (the supervisor's rule; without one, the brakes at the friction safety
+        factor)."""
+        c = self.config
+        speed = abs(speed_mps)
+        if self.stop_distance_m is not None:
+            stop = self.stop_distance_m(speed)
+        else:
+            stop = speed**2 / (2.0 * self.car.max_brake_decel_mps2 * c.friction_safety_factor)
+        return max(horizon_m, speed * c.late_cover_s + stop)
+
+    def _far_conflict(self, cands: list[Candidate], horizon_m: float, speed_mps: float
+                      ) -> int | None:
+        """Among candidates refused only for a conflict beyond the car's commitment
+        (:meth:`commit_m`: a cone seen from afar, its position still rough, that narrows the
+        lane there; a bend beyond the steering's limit, its inner cone not yet seen), the
+        index of the cheapest by its cost before the conflict, set to stand before it; None
+        when there is none. The car drives it as far as it could stop, and the next plans
+        see that part nearer and better."""
+        commit = self.commit_m(horizon_m, speed_mps)
+        far = [i for i, cand in enumerate(cands)
+               if not cand.leaves_lane and min(cand.hit_m, cand.bent_m) > commit]
+        if not far:
+            return None
+        best = min(far, key=lambda i: cands[i].cost_before_conflict)
+        self.rejections["wide: far conflict taken"] += 1
+        conflict = min(cands[best].hit_m, cands[best].bent_m)
+        cands[best] = replace(cands[best], feasible=True,
+                              stand_before_m=max(conflict - self.config.path_step_m, 0.0))
+        return best
 
     @staticmethod
     def stop_path(cands: list[Candidate], stop_room_m: float = 0.0) -> int:
@@ -290,6 +342,10 @@ class ManoeuvreGenerator:
         count, k_len = d.shape
         k_abs = np.abs(kappa[:, 1:-1]) if k_len > 2 else np.abs(kappa)
         kmax_all = k_abs.max(axis=1) if k_abs.shape[1] else np.zeros(count)
+        bent_all = kmax_all > self.kappa_max_1pm
+        u_all = s - s[0]
+        bent_u = (np.where(bent_all, u_all[1 + np.argmax(k_abs > self.kappa_max_1pm, axis=1)],
+                           math.inf) if k_len > 2 else np.where(bent_all, 0.0, math.inf))
         gap_all: FloatArray | None = None
         if tree is not None:
             cos_h, sin_h = np.cos(heading), np.sin(heading)
@@ -313,6 +369,8 @@ class ManoeuvreGenerator:
         free_all = np.full(count, math.inf)
         worst = np.zeros(count, np.int64)
         hit_all = np.zeros(count, bool)
+        hit_u = np.full(count, math.inf)
+        cost_before = cost_all
         if gap_all is not None:
             clear_all = gap_all.min(axis=1)
             # the hard margin grows from where the car is now (it is there: no closer than it
@@ -322,6 +380,8 @@ class ManoeuvreGenerator:
             slack = gap_all - (near[:, None] + (full - near)[:, None] * ramp_frac[None, :])
             worst = np.argmin(slack, axis=1)
             hit_all = slack[np.arange(count), worst] < 0.0
+            first_hit = np.argmax(slack < 0.0, axis=1)
+            hit_u = np.where(hit_all, u[first_hit], math.inf)
             # a stop stands at the last point before the path comes nearer than the near margin
             # (from where the car stands, less what the circles overstate beside the body: a
             # path along a cone as near by the body as now may read that much nearer)
@@ -330,10 +390,16 @@ class ManoeuvreGenerator:
             first = np.argmax(touch, axis=1)
             free_all = np.where(touch[np.arange(count), first], u[np.maximum(first - 1, 0)],
                                 math.inf)
+            # before its first conflict (a far one: :meth:`_far_conflict`) the room counts too
+            before = u[None, :] < np.minimum(hit_u, bent_u)[:, None]
+            clear_before = np.where(before, gap_all, math.inf).min(axis=1)
             short = np.maximum(0.0, c.preferred_clearance_m - clear_all)
-            cost_all = cost_all + np.where(np.isfinite(clear_all),
-                                           c.weight_clearance * short * short, 0.0)
-        bent_all = kmax_all > self.kappa_max_1pm
+            short_before = np.maximum(0.0, c.preferred_clearance_m - clear_before)
+            base = cost_all
+            cost_all = base + np.where(np.isfinite(clear_all),
+                                       c.weight_clearance * short * short, 0.0)
+            cost_before = base + np.where(np.isfinite(clear_before),
+                                          c.weight_clearance * short_before * short_before, 0.0)
         cands: list[Candidate] = []
         for j in range(count):
             kmax = float(kmax_all[j])
@@ -351,5 +417,6 @@ class ManoeuvreGenerator:
             cands.append(Candidate(float(offs[j]), s, d[j], xy[j], heading[j], kappa[j],
                                    float(clear_all[j]), collision_free and not bent_all[j],
                                    float(cost_all[j]), reason, collision_free, kmax,
-                                   speed_cap_mps, out, float(free_all[j])))
+                                   speed_cap_mps, out, float(free_all[j]), float(hit_u[j]),
+                                   float(bent_u[j]), float(cost_before[j])))
         return cands

@@ -38,6 +38,8 @@ def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
     v_lim = np.minimum(v_lim, cand.speed_cap_mps)
     if stop:  # no feasible path: stand before the first cone it would pass too near, not on it
         v_lim = np.where(s - s[0] >= cand.free_m, 0.0, v_lim)
+    elif math.isfinite(cand.stand_before_m):  # a conflict far ahead: able to stand before it
+        v_lim = np.where(s - s[0] >= cand.stand_before_m, 0.0, v_lim)
     # a stop: brake (within the limits) to stand at the end of the candidate
     v_end = 0.0 if stop else float(v_lim[-1])
     # backward pass: every target can be reached with the (safety-scaled) brakes

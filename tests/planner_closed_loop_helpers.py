@@ -1,6 +1,7 @@
 """A small kinematic bicycle and a closed loop (planner + controller, perfect pose) for tests.
 
-Not a test module itself (no ``test_`` prefix); imported by tests/test_planner_closed_loop.py.
+Not a test module itself (no ``test_`` prefix); imported by tests/test_planner_closed_loop.py
+and the planner's other tests.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from common.messages import (
 )
 from controller.controller import Controller
 from orchestrator.config import AppConfig
+from planner.manoeuvres import ManoeuvreGenerator
 from planner.path_planner import PathPlanner
 
 
@@ -195,3 +197,13 @@ def run_closed_loop(config: AppConfig, track, laps: int, *, max_time_s: float = 
     return LoopResult(lap_times, hits, off, max_offset, max_frame_offset, max_plan_error,
                       controller.state, controller.stop_reason,
                       car.lateral_peak_mps2, t, np.asarray(trace, np.float64).reshape(-1, 7))
+
+
+def body_gaps_m(generator: ManoeuvreGenerator, xy_m: np.ndarray, heading_rad: np.ndarray,
+                cones_xy_m: np.ndarray) -> np.ndarray:
+    """The gap (m) from the circles covering the car's body to the nearest cone centre at each
+    point (K,) of a path: xy (K, 2) (m), heading (K,) (rad)."""
+    along = np.stack([np.cos(heading_rad), np.sin(heading_rad)], axis=1)
+    centres = xy_m[:, None, :] + generator.circle_offsets_m[None, :, None] * along[:, None, :]
+    dist = np.linalg.norm(centres[:, :, None, :] - cones_xy_m[None, None, :, :], axis=-1)
+    return dist.min(axis=(1, 2)) - generator.circle_radius_m

@@ -231,9 +231,11 @@ def test_search_widens_when_every_configured_offset_is_blocked() -> None:
     chosen = cands[best]
     assert chosen.feasible and chosen.offset_m > 1.85
     assert generator.rejections["nominal: clearance"] == generator.config.offsets_count
-    # nothing to pass by: every family is tried, none is feasible, each rejection is counted
+    # nothing to pass by, within the car's commitment (the 6 m horizon at 3 m/s): every family
+    # is tried, none is feasible, each rejection is counted
     blocked = ManoeuvreGenerator(PlannerConfig(), CarConfig())
-    closed_wall = np.c_[np.full(40, 12.0), np.linspace(-6.0, 6.0, 40)]
+    closed_wall = np.c_[np.full(40, 5.0), np.linspace(-6.0, 6.0, 40)]
+    assert blocked.commit_m(blocked.horizon_m(3.0), 3.0) == pytest.approx(6.0)
     _, best = blocked.generate(frame, 0.0, 0.0, 0.0, 3.0, closed_wall, None)
     assert best == -1
     assert {k.split(":")[0] for k in blocked.rejections} == {"nominal", "wide", "short",

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from planner_closed_loop_helpers import body_gaps_m
 
 from common.car import CarConfig
 from common.messages import TargetStates
@@ -39,7 +40,9 @@ def _blocked_lane() -> tuple[SplineBaseframe, np.ndarray]:
 
 def _stop_targets(speed_mps: float) -> tuple[ManoeuvreGenerator, Candidate, TargetStates]:
     frame, cones = _blocked_lane()
-    generator = ManoeuvreGenerator(PlannerConfig(), CarConfig())
+    # the wall lies beyond the car's commitment at 3 m/s, where the far-conflict rule drives a
+    # candidate standing before it (tests/test_far_conflict.py): off, to try the stop path
+    generator = ManoeuvreGenerator(PlannerConfig(far_conflict_stop=False), CarConfig())
     cands, best = generator.generate(frame, 5.0, 0.0, 0.0, speed_mps, cones, None)
     assert best < 0, "the wall leaves no feasible manoeuvre"
     stop = cands[generator.stop_path(cands, speed_mps**2 / (2.0 * LIMITS.brake_mps2))]
@@ -48,21 +51,13 @@ def _stop_targets(speed_mps: float) -> tuple[ManoeuvreGenerator, Candidate, Targ
     return generator, stop, targets
 
 
-def _gaps_m(generator: ManoeuvreGenerator, xy_m: np.ndarray, heading_rad: np.ndarray,
-            cones_xy_m: np.ndarray) -> np.ndarray:
-    """The gap (m) from the car's covering circles to the nearest cone centre at each point."""
-    along = np.stack([np.cos(heading_rad), np.sin(heading_rad)], axis=1)
-    centres = xy_m[:, None, :] + generator.circle_offsets_m[None, :, None] * along[:, None, :]
-    dist = np.linalg.norm(centres[:, :, None, :] - cones_xy_m[None, None, :, :], axis=-1)
-    return dist.min(axis=(1, 2)) - generator.circle_radius_m
-
 
 def test_the_stop_stands_before_the_cone_the_path_runs_into() -> None:
     speed_mps = 3.0
     generator, stop, targets = _stop_targets(speed_mps)
     _, cones = _blocked_lane()
     near_m = PlannerConfig().cone_clearance_near_m
-    gaps = _gaps_m(generator, stop.xy_m, stop.heading_rad, cones)
+    gaps = body_gaps_m(generator, stop.xy_m, stop.heading_rad, cones)
     assert gaps.min() < 0.0  # the candidate itself runs into a cone
     assert math.isfinite(stop.free_m)
     assert stop.free_m >= speed_mps**2 / (2.0 * LIMITS.brake_mps2)  # room to stand in time
@@ -86,7 +81,7 @@ def test_a_car_already_too_near_a_cone_comes_no_nearer() -> None:
     cands, best = generator.generate(frame, axle_x + 5.0, 0.0, 0.0, 2.0, cones, None)
     assert best < 0
     stop = cands[generator.stop_path(cands)]
-    gaps = _gaps_m(generator, stop.xy_m, stop.heading_rad, cones)
+    gaps = body_gaps_m(generator, stop.xy_m, stop.heading_rad, cones)
     assert gaps[0] < 0.0
     u = stop.s_m - stop.s_m[0]
     # it stands before the first point nearer than now by more than the circles' overreach,
@@ -117,7 +112,7 @@ def test_a_car_passing_through_a_gate_nearer_than_the_margin_is_not_stopped_ther
     cands, best = generator.generate(frame, 5.0, 0.0, 0.0, speed_mps, every, None)
     assert best < 0
     for cand in cands:  # every path passes the gate nearer than it stands now
-        gaps = _gaps_m(generator, cand.xy_m, cand.heading_rad, every)
+        gaps = body_gaps_m(generator, cand.xy_m, cand.heading_rad, every)
         assert gaps[0] < PlannerConfig().cone_clearance_near_m and gaps[1:3].min() < gaps[0]
     stop = cands[generator.stop_path(cands, speed_mps**2 / (2.0 * LIMITS.brake_mps2))]
     assert stop.free_m >= speed_mps**2 / (2.0 * LIMITS.brake_mps2)
