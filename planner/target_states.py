@@ -30,7 +30,8 @@ def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
     least of the baseframe's profile at its arc lengths (``speed_at``), the friction circle
     on its own curvature (``limits``) and its own cap; braked (within ``limits``) to stand at
     its end when ``stop``, or before the point where it comes too near a cone (its ``free_m``)
-    if that is nearer, and otherwise never below ``min_plan_speed_mps`` (or its slowest limit,
+    if that is nearer; a candidate taken for a conflict far ahead stands before that (its
+    ``stand_before_m``); otherwise never below ``min_plan_speed_mps`` (or its slowest limit,
     when that is lower)."""
     s = cand.s_m
     ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
