@@ -83,7 +83,8 @@ class PlannerConfig:
     """With no candidate clear all along: take one whose only conflict (a cone nearer than the
     margin, a bend beyond the steering's limit) lies beyond the car's commitment (the horizon,
     and a late plan's stop), its targets standing before it, instead of the slower fallbacks.
-    Only with colours: without, a conflict ahead is the sign the lane was guessed wrong."""
+    Only with colours on the cones ahead: without, a conflict ahead is the sign the lane was
+    guessed wrong."""
     stitch_tolerance_m: float = 0.0
     """A new manoeuvre starts from the previous one's offset and slope at the car's arc length
     when the car is within this of it (0: always from the car's pose and heading)."""

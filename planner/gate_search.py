@@ -144,6 +144,21 @@ def gate_search_path(
     return np.asarray(points, np.float64), used
 
 
+def coloured_ahead(xy_m: FloatArray, colours: NDArray[np.int64], pose_xy_m: tuple[float, float],
+                   yaw_rad: float, reach_m: float) -> bool:
+    """Whether at least half the cones ahead of the car (within ``reach_m`` (m) in front and to
+    either side; ``xy_m`` (N, 2), ``colours`` (N,)) carry a colour: false with none ahead, and
+    once the camera has died, whatever the map kept of the cones seen before."""
+    xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+    dx, dy = xy[:, 0] - pose_xy_m[0], xy[:, 1] - pose_xy_m[1]
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    along, across = c * dx + s * dy, -s * dx + c * dy
+    ahead = (along > 0.0) & (along <= reach_m) & (np.abs(across) <= reach_m)
+    if not np.any(ahead):
+        return False
+    return bool(np.mean(np.asarray(colours)[ahead] != int(ConeColour.UNKNOWN)) >= 0.5)
+
+
 def has_colours(colours: NDArray[np.int64]) -> bool:
     """Whether any of ``colours`` (N,) is blue or yellow: without, the camera is dead (or has
     not voted yet) and the rows are told apart by their shape alone."""

@@ -34,7 +34,7 @@ from planner.exploration_speed import (
 )
 from planner.explored_lap import ExploredLap
 from planner.exploring_line import steerable_frame
-from planner.gate_search import has_colours
+from planner.gate_search import coloured_ahead
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.lap_counter import LapCounter
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
@@ -478,7 +478,10 @@ class PathPlanner:
         cands, best = self.generator.generate(frame, s0, d0, pose.yaw_rad, speed, cones,
                                               self._last_offset, self._stitch(frame, s0, d0),
                                               speed_margin=self.exploring, walls=walls,
-                                              far_conflicts=has_colours(map_state.cones.colour))
+                                              far_conflicts=coloured_ahead(
+                                                  map_state.cones.xy_m, map_state.cones.colour,
+                                                  (pose.x_m, pose.y_m), pose.yaw_rad,
+                                                  self.config.horizon_max_m))
         waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
         if not cands:
             return self._empty_plan(now_s, waypoints)

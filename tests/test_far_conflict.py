@@ -129,3 +129,20 @@ def test_the_planner_allows_a_far_conflict_only_with_colours(
     planner.start_autonomous(MapState(0.0, pose, cones, loop_closed=False))
     planner.plan(MapState(0.1, pose, cones, loop_closed=False), 0.1)
     assert seen == [coloured]
+
+
+def test_colours_count_only_ahead_of_the_car() -> None:
+    """The camera died a while ago: the map keeps the colours of the cones it saw behind the
+    car, and those ahead, seen by the LiDAR alone, have none. Far conflicts are then off."""
+    from common.messages import ConeColour
+    from planner.gate_search import coloured_ahead
+
+    x = np.arange(-30.0, 30.0, 5.0)
+    xy = np.r_[np.c_[x, np.full(len(x), 1.5)], np.c_[x, np.full(len(x), -1.5)]]
+    seen_before = np.r_[x, x] < 0.0
+    colours = np.where(seen_before, int(ConeColour.BLUE), int(ConeColour.UNKNOWN))
+    assert not coloured_ahead(xy, colours, (0.0, 0.0), 0.0, 20.0)
+    # turned round, the coloured cones are the ones ahead
+    assert coloured_ahead(xy, colours, (0.0, 0.0), math.pi, 20.0)
+    # nothing ahead within reach: no colours to trust either
+    assert not coloured_ahead(xy, colours, (100.0, 0.0), 0.0, 20.0)
