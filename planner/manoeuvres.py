@@ -343,8 +343,8 @@ class ManoeuvreGenerator:
         k_abs = np.abs(kappa[:, 1:-1]) if k_len > 2 else np.abs(kappa)
         kmax_all = k_abs.max(axis=1) if k_abs.shape[1] else np.zeros(count)
         bent_all = kmax_all > self.kappa_max_1pm
-        u_all = s - s[0]
-        bent_u = (np.where(bent_all, u_all[1 + np.argmax(k_abs > self.kappa_max_1pm, axis=1)],
+        u = s - s[0]
+        bent_u = (np.where(bent_all, u[1 + np.argmax(k_abs > self.kappa_max_1pm, axis=1)],
                            math.inf) if k_len > 2 else np.where(bent_all, 0.0, math.inf))
         gap_all: FloatArray | None = None
         if tree is not None:
@@ -353,7 +353,6 @@ class ManoeuvreGenerator:
                        * np.stack([cos_h, sin_h], axis=-1)[:, :, None, :]).reshape(-1, 2)
             dist, _ = tree.query(centres, distance_upper_bound=self.required_m + 5.0)
             gap_all = dist.reshape(count, k_len, -1).min(axis=2) - self.circle_radius_m
-            u = s - s[0]
             ramp = max(c.clearance_ramp_m, abs(speed_mps) * c.clearance_ramp_time_s, 1e-6)
             full = c.cone_clearance_m if margin_m is None else margin_m
             ramp_frac = np.clip(u / ramp, 0.0, 1.0)
