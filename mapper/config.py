@@ -425,8 +425,12 @@ class TentativeConfig:
     landmarks alone (FSG, 16 seeds: mean pose RMSE 0.127 m with the old noise, 0.096 m with
     it). A narrow passage is slowed (``planner.exploration_narrow_room_m``): EUFS
     small_track_2's 2.5 m wide bend hit its outer cones at the speed a farther view allowed."""
-    landmark_gate_m: float = 1.0
-    """A camera cone this near (m) a landmark is that landmark (its colour vote only)."""
+    landmark_gate_m: float = 1.5
+    """A camera cone this near (m) a landmark is that landmark (its colour vote only). Wider
+    than ``gate_m``: a tentative cone averaged from 15-20 m away lay 1.0-1.3 m from the
+    landmark the LiDAR then mapped of it often enough to stand as a phantom beside it (EPFL
+    track 4, seed 1: 12 of the refused manoeuvres' worst cones), and a real cone that near a
+    landmark is within the LiDAR's reach too."""
     gate_m: float = 1.0
     """Camera cones of successive frames this near (m) are one tentative cone."""
     min_frames: int = 2
@@ -436,8 +440,14 @@ class TentativeConfig:
     min_range_m: float = 10.0
     """A tentative cone nearer the car than this (m) goes: the LiDAR maps a real cone there
     (14-15 m ahead with the simulated VLP-16)."""
-    sigma_m: float = 0.3
-    """Position standard deviation (m) published with it: the simulated camera's at 15-20 m."""
+    sigma_at_zero_m: float = 0.05
+    """The camera's cone position standard deviation (m) at zero range; with ``sigma_per_m``
+    it weights each frame's cone in a tentative cone's mean, whose own standard deviation is
+    published with it (the simulated camera's model,
+    ``sim.camera.position_sigma_m``; set it from your own camera's calibration)."""
+    sigma_per_m: float = 0.02
+    """What the camera's standard deviation grows by per metre of range (m/m;
+    ``sim.camera.range_sigma_per_m``)."""
     confidence: float = 0.5
     """Its confidence in the :class:`~common.messages.ConeMap` (a SLAM landmark's is 1)."""
 

@@ -28,10 +28,51 @@ def test_a_far_camera_cone_is_published_once_seen_twice_at_its_mean_position() -
     _frame(tc, [(18.4, 1.8)], 0.05)
     cones = tc.cone_map(NO_LANDMARKS)
     assert len(cones) == 1
-    assert np.allclose(cones.xy_m[0], [18.2, 1.9])
+    # two frames at nearly one range: nearly their plain mean, the nearer a little more
+    assert np.allclose(cones.xy_m[0], [18.2, 1.9], atol=0.01)
+    assert cones.xy_m[0, 0] < 18.2
     assert cones.colour[0] == BLUE
     assert cones.confidence[0] < 1.0 and cones.ids[0] < 0
-    assert np.allclose(cones.covariance[0], np.eye(2) * TentativeConfig().sigma_m ** 2)
+    # the mean's own variance: the camera's at about 18 m, halved by two frames
+    sigma = TentativeConfig().sigma_at_zero_m + TentativeConfig().sigma_per_m * 18.3
+    assert np.allclose(cones.covariance[0], np.eye(2) * sigma**2 / 2.0, rtol=0.03)
+
+
+def test_a_nearer_frame_counts_more_by_the_cameras_noise_model() -> None:
+    cfg = TentativeConfig()
+    tc = TentativeCones(cfg)
+    _frame(tc, [(20.0, 2.0)], 0.0)
+    _frame(tc, [(20.0, 2.6)], 0.05, car=(9.0, 0.0))  # the car drove on: seen from 11.3 m
+    w_far = 1.0 / (cfg.sigma_at_zero_m + cfg.sigma_per_m * np.hypot(20.0, 2.0)) ** 2
+    w_near = 1.0 / (cfg.sigma_at_zero_m + cfg.sigma_per_m * np.hypot(11.0, 2.6)) ** 2
+    expected_y = (2.0 * w_far + 2.6 * w_near) / (w_far + w_near)
+    assert len(tc) == 1 and np.isclose(tc.xy_m[0, 1], expected_y)
+    assert expected_y > 2.35  # nearer the near frame's than the plain mean (2.3)
+
+
+def test_two_tracks_of_one_cone_fold_into_one() -> None:
+    tc = TentativeCones(TentativeConfig())
+    _frame(tc, [(18.0, 2.0)], 0.0)
+    _frame(tc, [(19.2, 2.0)], 0.05)  # too far off the first: a second track
+    assert len(tc) == 2
+    _frame(tc, [(18.6, 2.0)], 0.1)  # between them: one moves within gate_m of the other
+    assert len(tc) == 1
+    assert tc.frames.tolist() == [3]
+    cones = tc.cone_map(NO_LANDMARKS)
+    assert len(cones) == 1 and 18.0 < cones.xy_m[0, 0] < 19.2
+
+
+def test_a_tentative_cone_just_over_a_metre_from_a_landmark_is_that_landmark() -> None:
+    cfg = TentativeConfig()
+    tc = TentativeCones(cfg)
+    _frame(tc, [(18.0, 2.0)], 0.0)
+    _frame(tc, [(18.0, 2.0)], 0.05)
+    assert len(tc.cone_map(NO_LANDMARKS)) == 1
+    landmark = np.array([[16.8, 2.0]])  # the LiDAR's: 1.2 m nearer the car
+    assert 1.2 < cfg.landmark_gate_m
+    assert len(tc.cone_map(landmark)) == 0
+    far = np.array([[18.0 - cfg.landmark_gate_m - 0.1, 2.0]])
+    assert len(tc.cone_map(far)) == 1
 
 
 def test_a_landmark_takes_over_and_a_near_or_unseen_one_goes() -> None:
