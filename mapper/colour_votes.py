@@ -10,10 +10,12 @@ planners place by where it lies.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
-from common.messages import ConeColour
+from common.messages import ConeColour, ConeMap
 
 MIN_COLOUR_LEAD = 1.0
 """Confidence-weighted votes the leading colour needs over the next one."""
@@ -32,3 +34,11 @@ def voted_colours(votes: NDArray[np.float64], min_lead: float = MIN_COLOUR_LEAD
     out = np.argmax(v, axis=1) + 1
     out[(top <= 0.0) | (top - runner_up < min_lead)] = int(ConeColour.UNKNOWN)
     return out.astype(np.int64)
+
+
+def without_colours(cones: ConeMap) -> ConeMap:
+    """``cones`` with every colour unknown (the camera that voted them has died: what it saw
+    before no longer tells the cones ahead apart)."""
+    if not np.any(cones.colour != int(ConeColour.UNKNOWN)):
+        return cones
+    return replace(cones, colour=np.full(len(cones), int(ConeColour.UNKNOWN), np.int64))

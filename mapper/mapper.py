@@ -45,6 +45,7 @@ from common.messages import (
     WheelSpeeds,
 )
 from mapper.backend import Estimator, MappingBackend
+from mapper.colour_votes import without_colours
 from mapper.config import MapperConfig
 from mapper.delay_buffer import DelayBuffer
 from mapper.gnss_frame import GnssFrameEstimator
@@ -118,6 +119,8 @@ class Mapper:
         (:mod:`mapper.tentative_cones`)."""
         self._published: tuple[ConeMap, ConeMap] | None = None
         """(the landmarks, the landmarks with the tentative cones) last published."""
+        self._camera_last_s = -math.inf
+        """Time (s) of the newest camera frame: colours go with it (``fusion.colour_stale_s``)."""
         self._counts: dict[str, Counter[str]] = {}
         self._state = MapState(0.0, PoseEstimate(0.0, 0.0, 0.0, 0.0), ConeMap.empty(),
                                backend=self.backend.name)
@@ -262,6 +265,7 @@ class Mapper:
                 self.loop_closed = True
                 self.freeze()
         elif isinstance(r, CameraCones):
+            self._camera_last_s = max(self._camera_last_s, r.timestamp_s)
             cones = [c for c in r.cones
                      if math.isfinite(c.x_m) and math.isfinite(c.y_m)
                      and int(ConeColour.UNKNOWN) < int(c.colour) < N_COLOURS]
@@ -380,6 +384,16 @@ class Mapper:
                 landmarks, self.tentative.cone_map(landmarks.xy_m)))
         return self._published[1]
 
+    def _cones_to_publish(self, now_s: float) -> ConeMap:
+        """:meth:`_published_cones`; but while exploring with a camera silent for longer than
+        ``fusion.colour_stale_s`` (s, on the caller's clock ``now_s``) after it has reported,
+        the landmarks alone, none of them coloured: the colours and the tentative cones were
+        the camera's."""
+        if (not self.map_frozen and math.isfinite(self._camera_last_s)
+                and now_s - self._camera_last_s > self.config.fusion.colour_stale_s):
+            return without_colours(self._cones())
+        return self._published_cones()
+
     def _make_state(self, now_s: float) -> MapState:
         lagged = self.estimator.lagged(now_s)
         recent = self._recent_imu
@@ -396,5 +410,5 @@ class Mapper:
         pose = PoseEstimate(t, float(pred[0]), float(pred[1]), float(pred[2]), float(pred[3]),
                             float(pred[4]), float(pred[5]),
                             np.asarray(lagged.covariance, np.float64).copy())
-        return MapState(t, pose, self._published_cones(), loop_closed=self.loop_closed,
+        return MapState(t, pose, self._cones_to_publish(now_s), loop_closed=self.loop_closed,
                         backend=self.backend.name, map_frozen=self.map_frozen)
