@@ -437,8 +437,9 @@ class TentativeConfig:
     """A camera cone this near (m) a landmark is that landmark (its colour vote only). Wider
     than ``gate_m``: a tentative cone averaged from 15-20 m away lay 1.0-1.3 m from the
     landmark the LiDAR then mapped of it often enough to stand as a phantom beside it (EPFL
-    track 4, seed 1: 12 of the refused manoeuvres' worst cones), and a real cone that near a
-    landmark is within the LiDAR's reach too."""
+    track 4, seed 1, duplicates folded: 15 of the 20 pairs still among the refused
+    manoeuvres' worst cones), and a real cone that near a landmark is within the LiDAR's
+    reach too."""
     gate_m: float = 1.0
     """Camera cones of successive frames this near (m) are one tentative cone."""
     min_frames: int = 2
