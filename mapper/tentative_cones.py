@@ -106,13 +106,14 @@ class TentativeCones:
         were such pairs, about 1 m apart)."""
         gone = np.zeros(len(self), bool)
         i, j = pairs_within(self.xy_m, self.xy_m, self.config.gate_m)
-        pairs = i < j
-        if not pairs.any():
+        i, j = i[i < j], j[i < j]
+        if len(i) == 0:
             return gone
-        for a in np.argsort(-self.weight):
+        paired = np.unique(np.r_[i, j])
+        for a in paired[np.argsort(-self.weight[paired], kind="stable")]:
             if gone[a]:
                 continue
-            into = np.r_[j[(i == a) & pairs], i[(j == a) & pairs]]
+            into = np.r_[j[i == a], i[j == a]]
             into = into[~gone[into]]
             if len(into) == 0:
                 continue
