@@ -4,7 +4,9 @@ limit.
 Every mission reports ``mission_time_s`` (the RES go to the car standing finished).
 Trackdrive and autocross add the lap driven on the unseen track (``explored_lap_s``), the
 friction-limited minimum lap of the true centreline (``min_lap_s``) and their ratio
-(``explored_ratio``); with the seen track ahead of the car while it explored (its median,
+(``explored_ratio``), the same lap's minimum from a standstill (``min_standing_lap_s``: the
+explored lap is timed from the go, a standing start) and the ratio to it
+(``explored_standing_ratio``); with the seen track ahead of the car while it explored (its median,
 ``explored_view_m``), the speed stopping within that allows (``view_speed_mps``) and the
 ratio of a lap held to it to the same minimum (``view_ceiling_ratio``: what that much in view
 allows at best, ``bench ceiling``). Acceleration adds its time over the 75 m and skidpad
@@ -25,7 +27,7 @@ import numpy as np
 from common.car import CarConfig
 from common.messages import ConeColour
 from planner.skidpad_path import fit_centre
-from planner.speed_profile import min_lap_time_s, min_run_time_s
+from planner.speed_profile import min_lap_time_s, min_run_time_s, min_standing_lap_time_s
 from simulator.mission_timing import MissionTimer
 from simulator.track import Track
 
@@ -56,6 +58,9 @@ def mission_result(mission: str, track: Track, car: CarConfig, timer: MissionTim
             result["explored_lap_s"] = _round(explored_lap_s)
             result["min_lap_s"] = _round(t_min)
             result["explored_ratio"] = _ratio(explored_lap_s, t_min)
+            t_standing = min_standing_lap_time_s(track.centreline_xy_m, car)
+            result["min_standing_lap_s"] = _round(t_standing)
+            result["explored_standing_ratio"] = _ratio(explored_lap_s, t_standing)
             if explored_view is not None:
                 view_m, speed_mps = explored_view
                 ceiling = min_lap_time_s(track.centreline_xy_m, car, max_speed_mps=speed_mps)

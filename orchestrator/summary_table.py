@@ -51,12 +51,17 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.insert(after_off_track, ("least clearance (m)", f"{least['gap_m']:.3f} (cone "
                                       f"{least['cone']} at {least['time_s']:.2f} s)"))
     result = summary.get("mission_result") or {}
+    explored_rows: list[tuple[str, Any]] = []
     if result.get("explored_ratio") is not None:
-        rows.insert(6, ("explored / friction limit", result["explored_ratio"]))
+        explored_rows.append(("explored / friction limit", result["explored_ratio"]))
+    if result.get("explored_standing_ratio") is not None:
+        explored_rows.append(("explored / standing start", result["explored_standing_ratio"]))
+    rows[6:6] = explored_rows
     if result.get("view_ceiling_ratio") is not None:
-        rows.insert(7, ("in view while exploring", f"{result['explored_view_m']:.1f} m: at most "
-                                                   f"{result['view_speed_mps']:.1f} m/s, "
-                                                   f"{result['view_ceiling_ratio']:.2f}x at best"))
+        rows.insert(6 + len(explored_rows), (
+            "in view while exploring", f"{result['explored_view_m']:.1f} m: at most "
+                                       f"{result['view_speed_mps']:.1f} m/s, "
+                                       f"{result['view_ceiling_ratio']:.2f}x at best"))
     steering = summary.get("steering_while_exploring") or {}
     if steering.get("seconds"):
         rows.append(("steering rate exploring", f"{steering['rate_rms_radps']:.3f} rad/s RMS "

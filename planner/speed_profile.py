@@ -240,6 +240,23 @@ def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig,
     return lap_time_s(v, ds, closed=True)
 
 
+def min_standing_lap_time_s(centreline_xy: ArrayLike, car: CarConfig) -> float:
+    """Friction-limited minimum time (s) of one lap along a closed centreline (N, 2) (m) from a
+    standstill at its first point: the same point mass and baseframe as :func:`min_lap_time_s`,
+    starting at rest and free to cross the line at speed (the explored lap of an autonomous
+    run is timed from the go, a standing start; its flying-lap minimum leaves the launch out).
+    """
+    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
+
+    frame = SplineBaseframe(centreline_xy, closed=True, resample_m=1.0, smoothing_m=1.0,
+                            step_m=0.5)
+    limits = SpeedLimits.from_car(car)
+    kappa = np.r_[frame.curvature_1pm, frame.curvature_1pm[:1]]  # the line again at the end
+    ds = np.full(len(kappa) - 1, frame.step_m)
+    v = forward_backward_speed_mps(kappa, ds, limits, closed=False, v_start_mps=0.0)
+    return lap_time_s(v, ds, closed=False)
+
+
 def min_run_time_s(path_xy: ArrayLike, car: CarConfig, s_from_m: float, s_to_m: float) -> float:
     """Friction-limited minimum time (s) from arc length ``s_from_m`` to ``s_to_m`` (m) along an
     open path (N, 2) (m) on which a point mass starts at standstill at the first point.
