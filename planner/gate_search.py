@@ -66,6 +66,11 @@ LANE_NARROWING = 0.6
 path's gates so far is an edge along one boundary, not a gate: a track keeps its width (the
 rules' 3 m at least), and without colours the search's last step otherwise often runs along a
 boundary (its midpoint on the boundary: nothing further on refutes it)."""
+ROWS_TO_CAR_M = 5.0
+"""Without colours, the rows of cones the car drove past run on from the end of the way
+driven to the car itself when that end is at most this far from it (m): the way driven stops
+a few metres short of the car (:data:`planner.explored_lap.DRIVEN_NEAR_M`); a way that ends
+further off is no way to the car."""
 MAX_TURN_RAD = 1.2
 """Largest change of heading from one midpoint to the next."""
 SEARCH_RADIUS_M = 30.0
@@ -127,8 +132,15 @@ def gate_search_path(
         return nothing
     search = _Search(xy[near], col[near], tri, track_width_m)
     if driven_xy_m is not None and len(driven_xy_m) >= 2:
-        crossed = crossings(xy[near], tri.simplices, np.asarray(driven_xy_m, np.float64))
+        driven = np.asarray(driven_xy_m, np.float64)
+        crossed = crossings(xy[near], tri.simplices, driven)
         search.behind = {edge: crossing[0] for edge, crossing in crossed.items()}
+        if not search.coloured and math.hypot(*(start - driven[-1])) <= ROWS_TO_CAR_M:
+            # the rows go on to the car: the cones it passed since the way driven ends (a few
+            # metres behind it) are its rows' last, and a row that skips one points off its
+            # way on (EUFS Hairpin, camera dead 3 s into the run: a path through the outer
+            # row's next two cones)
+            crossed = crossings(xy[near], tri.simplices, np.vstack([driven, start[None, :]]))
         search.rows_driven = rows_driven(crossed, xy[near], track_width_m)
     seeds = search.seeds(start, start_yaw_rad, behind_m)
     best = search.run(seeds)

@@ -126,3 +126,31 @@ def test_a_cone_in_an_edge_makes_it_no_gate(monkeypatch) -> None:
     assert len(path) == 1
     monkeypatch.setattr(gs, "CONE_IN_GATE_FRACTION", 0.0)
     assert len(exploration_path(cones, colours, (0.0, 0.0), 0.0, track_width_m=WIDTH_M)) > 1
+
+
+def _wide_hairpin() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A lane along +x that ends in a right-hand hairpin round an island, wider there (about
+    7 m) than a gate between cones of unknown colour may be, as on EUFS Hairpin (its cones
+    rounded to 0.1 m, shifted): cones (N, 2), the way the car drove up the lane (M, 2), ending
+    about 4 m behind the car at (0.3, -0.5) heading 34 degrees right (into the bend)."""
+    outer = [(-10.1, 3.2), (-7.1, 3.3), (-4.2, 3.5), (-0.9, 3.3), (2.1, 2.0), (5.2, 0.0),
+             (6.5, -1.4), (6.3, -5.5), (5.3, -7.9)]
+    inner = [(-9.1, -2.2), (-6.1, -1.4), (-3.1, -1.8), (-1.0, -3.3), (-2.4, -5.3), (-5.1, -5.3),
+             (-8.3, -6.0), (-10.8, -6.5)]
+    way_back = [(1.8, -9.0), (-1.7, -9.4), (-4.7, -9.8), (-8.0, -10.2), (-10.4, -10.7)]
+    driven = np.c_[np.linspace(-12.0, -3.2, 20), np.interp(np.linspace(-12.0, -3.2, 20),
+                                                           [-12.0, -6.0, -3.2], [0.0, 0.7, 0.8])]
+    return np.array(outer + inner + way_back), driven, np.array([0.3, -0.5])
+
+
+def test_the_outer_rows_next_two_cones_make_no_gate_into_a_wide_hairpin() -> None:
+    """At a hairpin too wide for a blind gate, the only edges on are the outer row's: its
+    cone beside the car (passed since the way driven ends) is the row's, so the next one,
+    where the row bends on to, is no cone of the other side, and the path ends at the
+    hairpin's entry (the car stops there) instead of turning out through the outer row."""
+    cones, driven, car = _wide_hairpin()
+    colours = np.full(len(cones), UNKNOWN)
+    path, _ = gate_search_path(cones, colours, car, -0.6, WIDTH_M, 0.0, driven)
+    outer_gap_mid = 0.5 * (np.array([2.1, 2.0]) + np.array([5.2, 0.0]))
+    assert np.min(np.hypot(*(path - outer_gap_mid).T)) > 1.0, path
+    assert np.all(path[:, 0] < 2.5), path
