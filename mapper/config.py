@@ -441,7 +441,17 @@ class TentativeConfig:
     manoeuvres' worst cones), and a real cone that near a landmark is within the LiDAR's
     reach too."""
     gate_m: float = 1.0
-    """Camera cones of successive frames this near (m) are one tentative cone."""
+    """Camera cones of successive frames this near (m) are one tentative cone; further out,
+    where ``gate_sigmas`` of the camera's standard deviation at the cone's range are more,
+    that much."""
+    gate_sigmas: float = 0.0
+    """The association gate in the camera's standard deviations at the range (``gate_m`` at
+    least; 0: ``gate_m`` everywhere). Set it (3) for a camera that maps cones well beyond
+    20 m: at 27 m one frame in a few places a cone 1.4 m aside, and a fixed 1 m gate started
+    a second track of it, a phantom in the lane (EPFL ``fsds_competition_1``, seed 1, with a
+    30 m camera: a cone hit at 10 m/s). Not the default: with the simulated 20 m camera it
+    also folds a rules-minimum hairpin's inner cones (under a metre apart) seen at 15-20 m,
+    and ``hard:hairpins`` seed 5 grazed a cone (docs/driving.md)."""
     min_frames: int = 2
     """Frames a tentative cone must be seen in before it is published."""
     max_age_s: float = 0.5

@@ -5,10 +5,11 @@ mapped (:mod:`planner.exploration_speed`), and the LiDAR's landmarks begin only 
 (the simulated VLP-16 is low at the front). The camera sees cones further (20 m in the
 simulator), less exactly (about 0.3 m at 15-20 m, where the LiDAR is right to 1 cm). A camera
 cone that no landmark explains is kept here, in the world frame at the pose of the image:
-the same cone in the next frames (within ``gate_m``) votes its colour and moves its position,
-the mean of all its frames' weighted by the camera's precision at each one's range
-(``sigma_at_zero_m``, ``sigma_per_m``: the nearer frames count more); two kept cones nearer
-each other than ``gate_m`` are folded into one. Once seen in ``min_frames`` frames it is
+the same cone in the next frames (within the gate: ``gate_m``, or with ``gate_sigmas`` set
+that many of the camera's standard deviations at its range where more) votes its colour and
+moves its position, the mean of all its frames' weighted by the camera's precision at each
+one's range (``sigma_at_zero_m``, ``sigma_per_m``: the nearer frames count more); two kept
+cones nearer each other than the gate are folded into one. Once seen in ``min_frames`` frames it is
 published beside the landmarks with confidence ``confidence`` (< 1: not a landmark), until a
 landmark comes within ``landmark_gate_m`` of it (the LiDAR has it now), the camera has not
 seen it for ``max_age_s``, or it is nearer the car than ``min_range_m`` (the LiDAR maps a real
@@ -66,7 +67,10 @@ class TentativeCones:
         weights = 1.0 / self.sigma_m(range_m) ** 2
         taken = np.zeros(len(xy), bool)
         if len(xy) and len(self):
-            rows, cols, _ = match_cones(xy, self.xy_m, c.gate_m)
+            gate_m = self.gate_m(range_m)
+            rows, cols, dist = match_cones(xy, self.xy_m, float(gate_m.max()))
+            within = dist <= gate_m[rows]
+            rows, cols = rows[within], cols[within]
             w_old, w_new = self.weight[cols], weights[rows]
             self.xy_m[cols] = ((self.xy_m[cols] * w_old[:, None] + xy[rows] * w_new[:, None])
                                / (w_old + w_new)[:, None])
@@ -86,7 +90,7 @@ class TentativeCones:
             self.last_seen_s = np.concatenate([self.last_seen_s, np.full(len(new), t_s)])
             self.ids = np.concatenate([self.ids, self._next_id - np.arange(len(new))])
             self._next_id -= len(new)
-        merged = self._merge_duplicates()
+        merged = self._merge_duplicates(car_xy_m)
         near_car = np.hypot(self.xy_m[:, 0] - car_xy_m[0],
                             self.xy_m[:, 1] - car_xy_m[1]) < c.min_range_m
         self._keep(~(merged | near_car | near_any(self.xy_m, landmarks_xy_m, c.landmark_gate_m)
@@ -97,16 +101,25 @@ class TentativeCones:
         configured noise model, ``sigma_at_zero_m + sigma_per_m * range``."""
         return self.config.sigma_at_zero_m + self.config.sigma_per_m * np.asarray(range_m)
 
-    def _merge_duplicates(self) -> NDArray[np.bool_]:
-        """Fold the cones nearer each other than ``gate_m`` into the one with the most weight
-        (their weighted mean, votes and frames summed); which are gone (K,). One cone seen once
-        too far off its track (three sigmas at 15-20 m are 1-1.3 m) starts a second track, and
-        the frames after feed now one, now the other: both were published, a phantom beside the
-        real cone that narrowed the lane (EPFL track 4: 42 of 55 refused manoeuvres' worst cones
-        were such pairs, about 1 m apart)."""
+    def gate_m(self, range_m: FloatArray) -> FloatArray:
+        """The association gate (m) for cones ``range_m`` (m) from the car: ``gate_sigmas``
+        of the camera's standard deviation there, ``gate_m`` at least."""
+        return np.maximum(self.config.gate_sigmas * self.sigma_m(range_m), self.config.gate_m)
+
+    def _merge_duplicates(self, car_xy_m: tuple[float, float]) -> NDArray[np.bool_]:
+        """Fold the cones nearer each other than the gate at their range from the car
+        (:meth:`gate_m`, the nearer one's) into the one with the most weight (their weighted
+        mean, votes and frames summed); which are gone (K,). One cone seen once too far off its
+        track starts a second track, and the frames after feed now one, now the other: both
+        were published, a phantom beside the real cone that narrowed the lane (EPFL track 4:
+        42 of 55 refused manoeuvres' worst cones were such pairs, about 1 m apart)."""
         gone = np.zeros(len(self), bool)
-        i, j = pairs_within(self.xy_m, self.xy_m, self.config.gate_m)
-        i, j = i[i < j], j[i < j]
+        range_m = np.hypot(self.xy_m[:, 0] - car_xy_m[0], self.xy_m[:, 1] - car_xy_m[1])
+        gate_m = self.gate_m(range_m)
+        i, j = pairs_within(self.xy_m, self.xy_m, float(gate_m.max()) if len(self) else 0.0)
+        keep = (i < j) & (np.hypot(*(self.xy_m[i] - self.xy_m[j]).T)
+                          <= np.minimum(gate_m[i], gate_m[j]))
+        i, j = i[keep], j[keep]
         if len(i) == 0:
             return gone
         paired = np.unique(np.r_[i, j])

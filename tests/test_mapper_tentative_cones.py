@@ -52,14 +52,42 @@ def test_a_nearer_frame_counts_more_by_the_cameras_noise_model() -> None:
 
 def test_two_tracks_of_one_cone_fold_into_one() -> None:
     tc = TentativeCones(TentativeConfig())
+    gate = float(tc.gate_m(np.array([18.5]))[0])
     _frame(tc, [(18.0, 2.0)], 0.0)
-    _frame(tc, [(19.2, 2.0)], 0.05)  # too far off the first: a second track
+    _frame(tc, [(18.1 + gate, 2.0)], 0.05)  # too far off the first: a second track
     assert len(tc) == 2
-    _frame(tc, [(18.6, 2.0)], 0.1)  # between them: one moves within gate_m of the other
+    _frame(tc, [(18.05 + 0.5 * gate, 2.0)], 0.1)  # between: one moves within the gate
     assert len(tc) == 1
     assert tc.frames.tolist() == [3]
     cones = tc.cone_map(NO_LANDMARKS)
-    assert len(cones) == 1 and 18.0 < cones.xy_m[0, 0] < 19.2
+    assert len(cones) == 1 and 18.0 < cones.xy_m[0, 0] < 18.1 + gate
+
+
+def test_the_gate_grows_with_the_cameras_noise_at_range() -> None:
+    """With ``gate_sigmas`` set (a camera that sees far), far away one frame in a few places
+    a cone well aside (three sigmas at 27 m are 1.8 m): it is still that cone, not a second
+    one in the lane; near the car, where the camera is exact, two cones 1.2 m apart stay two
+    (the gate is ``gate_m`` there). Unset (the default), the gate is ``gate_m``."""
+    assert TentativeConfig().gate_sigmas == 0.0
+    plain = TentativeCones(TentativeConfig())
+    assert plain.gate_m(np.array([27.0]))[0] == plain.config.gate_m
+    _frame(plain, [(27.0, 2.0)], 0.0)
+    _frame(plain, [(27.0, 0.6)], 0.05)
+    assert len(plain) == 2
+    cfg = TentativeConfig(gate_sigmas=3.0)
+    tc = TentativeCones(cfg)
+    sigma_27 = cfg.sigma_at_zero_m + cfg.sigma_per_m * 27.0
+    assert tc.gate_m(np.array([27.0]))[0] == np.float64(cfg.gate_sigmas * sigma_27)
+    assert tc.gate_m(np.array([5.0]))[0] == cfg.gate_m
+    _frame(tc, [(27.0, 2.0)], 0.0)
+    _frame(tc, [(27.0, 0.6)], 0.05)  # 1.4 m aside, 2.4 sigmas
+    _frame(tc, [(27.0, 2.1)], 0.1)
+    assert len(tc) == 1 and tc.frames.tolist() == [3]
+    assert 1.4 < tc.cone_map(NO_LANDMARKS).xy_m[0, 1] < 2.0
+    near = TentativeCones(cfg)
+    _frame(near, [(11.0, 2.0), (11.0, 0.8)], 0.0)
+    _frame(near, [(11.0, 2.0), (11.0, 0.8)], 0.05)
+    assert len(near.cone_map(NO_LANDMARKS)) == 2
 
 
 def test_a_tentative_cone_just_over_a_metre_from_a_landmark_is_that_landmark() -> None:
