@@ -13,11 +13,15 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from common.car import CarConfig
+
+if TYPE_CHECKING:
+    from planner.baseframe import SplineBaseframe
 
 FloatArray = NDArray[np.float64]
 
@@ -222,6 +226,14 @@ def lap_time_s(speed_mps: ArrayLike, ds_m: ArrayLike, closed: bool = True) -> fl
     return float(np.sum(ds / mean))
 
 
+def _reference_frame(path_xy: ArrayLike, closed: bool) -> SplineBaseframe:
+    """The baseframe the friction-limited references are timed on: the path as a spline,
+    resampled every 1 m and lightly smoothed as the planner does, sampled every 0.5 m."""
+    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
+
+    return SplineBaseframe(path_xy, closed=closed, resample_m=1.0, smoothing_m=1.0, step_m=0.5)
+
+
 def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig,
                    max_speed_mps: float = math.inf) -> float:
     """Friction-limited minimum lap time (s) along a closed centreline (N, 2) (m).
@@ -230,10 +242,7 @@ def min_lap_time_s(centreline_xy: ArrayLike, car: CarConfig,
     on the centreline's baseframe (a periodic spline, resampled every 1 m and lightly smoothed as
     the planner does), on a flying lap; ``max_speed_mps`` (m/s) caps the top speed further.
     """
-    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
-
-    frame = SplineBaseframe(centreline_xy, closed=True, resample_m=1.0, smoothing_m=1.0,
-                            step_m=0.5)
+    frame = _reference_frame(centreline_xy, closed=True)
     limits = SpeedLimits.from_car(car, max_speed_mps=max_speed_mps)
     ds = np.full(len(frame.s_m), frame.step_m)
     v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=True)
@@ -246,10 +255,7 @@ def min_standing_lap_time_s(centreline_xy: ArrayLike, car: CarConfig) -> float:
     starting at rest and free to cross the line at speed (the explored lap of an autonomous
     run is timed from the go, a standing start; its flying-lap minimum leaves the launch out).
     """
-    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
-
-    frame = SplineBaseframe(centreline_xy, closed=True, resample_m=1.0, smoothing_m=1.0,
-                            step_m=0.5)
+    frame = _reference_frame(centreline_xy, closed=True)
     limits = SpeedLimits.from_car(car)
     kappa = np.r_[frame.curvature_1pm, frame.curvature_1pm[:1]]  # the line again at the end
     ds = np.full(len(kappa) - 1, frame.step_m)
@@ -265,9 +271,7 @@ def min_run_time_s(path_xy: ArrayLike, car: CarConfig, s_from_m: float, s_to_m: 
     top speed, no safety factor; the path's baseframe resampled every 1 m and lightly smoothed),
     free to leave the path's end at speed: the friction limit of an acceleration run.
     """
-    from planner.baseframe import SplineBaseframe  # local: baseframe imports nothing from here
-
-    frame = SplineBaseframe(path_xy, closed=False, resample_m=1.0, smoothing_m=1.0, step_m=0.5)
+    frame = _reference_frame(path_xy, closed=False)
     limits = SpeedLimits.from_car(car)
     ds = np.full(len(frame.s_m) - 1, frame.step_m)
     v = forward_backward_speed_mps(frame.curvature_1pm, ds, limits, closed=False,
