@@ -101,6 +101,8 @@ class PathPlanner:
         self.laps = LapCounter(c.lap_min_fraction, c.start_line_search_m)
         self._last_offset: float | None = None
         self._last_chosen: Candidate | None = None
+        self._hold: tuple[float, float] | None = None
+        """(until (s), speed (m/s)): no plan asks more speed until then (``fallback_hold_s``)."""
         self._origin_xy: tuple[float, float] | None = None
         """Where the autonomous run started when it explores (no exploration drive)."""
         self._explored: ExploredLap | None = None
@@ -485,11 +487,14 @@ class PathPlanner:
         waypoints = self.book.next_waypoints(pose.x_m, pose.y_m)
         if not cands:
             return self._empty_plan(now_s, waypoints)
+        cap = self._held_speed_mps(now_s)
         if best >= 0:
             chosen = cands[best]
             self._last_offset = chosen.offset_m
             self._last_chosen = chosen
-            targets = self._targets(chosen, now_s, stop=False)
+            targets = self._targets(chosen, now_s, stop=False, cap_mps=cap)
+            if chosen.speed_cap_mps < speed:
+                self._start_hold(now_s, speed)
         else:
             self.rejects["no_feasible_manoeuvre"] += 1
             self._last_chosen = None
@@ -498,6 +503,7 @@ class PathPlanner:
                            "%s; rejected so far: %s)", s0, cands[fallback].reason,
                            dict(self.generator.rejections))
             targets = self._targets(cands[fallback], now_s, stop=True)
+            self._start_hold(now_s, speed)
         return Plan(
             timestamp_s=now_s,
             baseframe=self._frame_msg,
@@ -531,10 +537,27 @@ class PathPlanner:
             return None
         return d_prev, slope
 
-    def _targets(self, cand: Candidate, now_s: float, stop: bool) -> TargetStates:
-        """Discretise a candidate into timed target states with friction-limited speeds."""
+    def _start_hold(self, now_s: float, speed_mps: float) -> None:
+        """A fallback brakes the car at ``speed_mps``: hold the plans to that speed (or to the
+        speed of a hold already on, if less) for ``fallback_hold_s``."""
+        hold_s = self.config.fallback_hold_s
+        if hold_s <= 0.0:
+            return
+        held = self._held_speed_mps(now_s)
+        self._hold = (now_s + hold_s, min(speed_mps, held))
+
+    def _held_speed_mps(self, now_s: float) -> float:
+        """The speed (m/s) a fallback's hold allows at ``now_s``; inf with none on."""
+        if self._hold is None or now_s >= self._hold[0]:
+            return math.inf
+        return self._hold[1]
+
+    def _targets(self, cand: Candidate, now_s: float, stop: bool,
+                 cap_mps: float = math.inf) -> TargetStates:
+        """Discretise a candidate into timed target states with friction-limited speeds, no
+        faster than ``cap_mps``."""
         return timed_targets(cand, self.speed_at, self.limits, now_s, stop,
-                             self.config.min_plan_speed_mps)
+                             self.config.min_plan_speed_mps, cap_mps)
 
     def _empty_plan(self, now_s: float, waypoints: FloatArray | None = None) -> Plan:
         return Plan(

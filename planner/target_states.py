@@ -25,10 +25,10 @@ def empty_targets() -> TargetStates:
 
 def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
                   limits: SpeedLimits, now_s: float, stop: bool,
-                  min_plan_speed_mps: float) -> TargetStates:
+                  min_plan_speed_mps: float, cap_mps: float = math.inf) -> TargetStates:
     """The candidate ``cand`` as target states timed from ``now_s`` (s): its speed (m/s) the
     least of the baseframe's profile at its arc lengths (``speed_at``), the friction circle
-    on its own curvature (``limits``) and its own cap; braked (within ``limits``) to stand at
+    on its own curvature (``limits``), its own cap and ``cap_mps`` (a fallback's hold); braked (within ``limits``) to stand at
     its end when ``stop``, or before the point where it comes too near a cone (its ``free_m``)
     if that is nearer; a candidate taken for a conflict far ahead stands before that (its
     ``stand_before_m``); otherwise never below ``min_plan_speed_mps`` (or its slowest limit,
@@ -36,7 +36,7 @@ def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
     s = cand.s_m
     ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
     v_lim = np.minimum(speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm, limits))
-    v_lim = np.minimum(v_lim, cand.speed_cap_mps)
+    v_lim = np.minimum(v_lim, min(cand.speed_cap_mps, cap_mps))
     if stop:  # no feasible path: stand before the first cone it would pass too near, not on it
         v_lim = np.where(s - s[0] >= cand.free_m, 0.0, v_lim)
     elif math.isfinite(cand.stand_before_m):  # a conflict far ahead: able to stand before it
