@@ -2,6 +2,8 @@
 
 ``python main.py --help`` imports every package's ``cli.py`` but no benchmark and nothing heavy
 (scipy, pygame, matplotlib, Ray, Optuna, cantools): subcommands import those when they run.
+That is what keeps it quick (about 0.17 s on an idle 2-core machine); the tests check the
+imports, not the clock, which a loaded machine stretches (1.2 s beside two simulations).
 ``python main.py bench`` with no name lists the benchmarks, one line each.
 """
 
@@ -11,7 +13,6 @@ import argparse
 import json
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -66,19 +67,6 @@ def test_help_imports_nothing_heavy(argv: tuple[str, ...]) -> None:
 def test_bench_name_help_imports_that_benchmark_only() -> None:
     modules = _imported("bench", "sim", "--help")
     assert sorted(m for m in modules if m.startswith("bench.bench_")) == ["bench.bench_sim"]
-
-
-def _wall_s(*argv: str) -> float:
-    t0 = time.perf_counter()
-    subprocess.run([sys.executable, "main.py", *argv], cwd=ROOT, capture_output=True, timeout=60,
-                   check=True)
-    return time.perf_counter() - t0
-
-
-def test_help_answers_at_once() -> None:
-    """About 0.17 s on an idle 2-core machine; the bound leaves room for a loaded one."""
-    for argv in (("--help",), ("sim", "--help")):
-        assert min(_wall_s(*argv) for _ in range(3)) < 1.0, argv
 
 
 def test_bench_without_a_name_lists_the_benchmarks(capsys: pytest.CaptureFixture[str]) -> None:
