@@ -228,10 +228,11 @@ class PlannerConfig:
     fallback_speed_mps: float = 4.0
     """Speed cap of the short-horizon manoeuvres tried last."""
     fallback_hold_s: float = 0.0
-    """After a plan that brakes for a fallback (a capped manoeuvre or a stop, the car above its
-    cap), the plans of the next this many seconds (s) ask no more speed than the car had then:
-    a fallback says the way ahead is in doubt, and the plan after it, clear again, would
-    otherwise drive the car back to full speed between two fallbacks' brakings. 0: off."""
+    """After a plan that brakes for a fallback (a capped manoeuvre or a stop) with the car above
+    ``fallback_speed_mps``, the plans of the next this many seconds (s) ask no more speed than
+    the car had then (nor less than ``fallback_speed_mps``): a fallback says the way ahead is
+    in doubt, and the plan after it, clear again, would otherwise drive the car back to full
+    speed between two fallbacks' brakings. 0: off."""
     crawl_speed_mps: float = 2.0
     """Speed cap (m/s) of the last resort, candidates with only the cone's radius to spare: at
     walking pace the car turns as the kinematic bicycle and follows its path closely."""

@@ -539,12 +539,14 @@ class PathPlanner:
 
     def _start_hold(self, now_s: float, speed_mps: float) -> None:
         """A fallback brakes the car at ``speed_mps``: hold the plans to that speed (or to the
-        speed of a hold already on, if less) for ``fallback_hold_s``."""
-        hold_s = self.config.fallback_hold_s
-        if hold_s <= 0.0:
+        speed of a hold already on, if less) for ``fallback_hold_s``, never below
+        ``fallback_speed_mps``: at the fallbacks' own pace a hold has nothing to hold back, and
+        one ratcheted down by the crawls of a hairpin left the car at walking pace."""
+        c = self.config
+        if c.fallback_hold_s <= 0.0 or speed_mps <= c.fallback_speed_mps:
             return
-        held = self._held_speed_mps(now_s)
-        self._hold = (now_s + hold_s, min(speed_mps, held))
+        held = min(speed_mps, self._held_speed_mps(now_s))
+        self._hold = (now_s + c.fallback_hold_s, max(held, c.fallback_speed_mps))
 
     def _held_speed_mps(self, now_s: float) -> float:
         """The speed (m/s) a fallback's hold allows at ``now_s``; inf with none on."""

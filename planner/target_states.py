@@ -28,11 +28,11 @@ def timed_targets(cand: Candidate, speed_at: Callable[[FloatArray], FloatArray],
                   min_plan_speed_mps: float, cap_mps: float = math.inf) -> TargetStates:
     """The candidate ``cand`` as target states timed from ``now_s`` (s): its speed (m/s) the
     least of the baseframe's profile at its arc lengths (``speed_at``), the friction circle
-    on its own curvature (``limits``), its own cap and ``cap_mps`` (a fallback's hold); braked (within ``limits``) to stand at
-    its end when ``stop``, or before the point where it comes too near a cone (its ``free_m``)
-    if that is nearer; a candidate taken for a conflict far ahead stands before that (its
-    ``stand_before_m``); otherwise never below ``min_plan_speed_mps`` (or its slowest limit,
-    when that is lower)."""
+    on its own curvature (``limits``), its own cap and ``cap_mps`` (a fallback's hold);
+    braked (within ``limits``) to stand at its end when ``stop``, or before the point where it
+    comes too near a cone (its ``free_m``) if that is nearer; a candidate taken for a conflict
+    far ahead stands before that (its ``stand_before_m``); otherwise never below
+    ``min_plan_speed_mps`` (or its slowest limit, when that is lower)."""
     s = cand.s_m
     ds = np.linalg.norm(np.diff(cand.xy_m, axis=0), axis=1)
     v_lim = np.minimum(speed_at(s), curvature_speed_limit_mps(cand.curvature_1pm, limits))

@@ -81,3 +81,14 @@ def test_a_second_fallback_holds_to_the_lower_speed_and_restarts_the_hold() -> N
     # the first hold would have ended at 1.2 s; the second holds the slower speed to 1.9 s
     best, top = _top_speed_mps(planner, 1.5, cone_map(*_lane()), SPEED_MPS)
     assert best >= 0 and top <= slower + 1e-9
+
+
+def test_a_fallback_at_the_fallbacks_own_pace_holds_nothing() -> None:
+    """Crawling round a hairpin the car stops and goes on plan after plan: a hold there would
+    ratchet it down to walking pace (camera dead, EUFS SmallCircle then stopped)."""
+    planner = _planner(1.0)
+    slow = planner.config.fallback_speed_mps - 0.5
+    _top_speed_mps(planner, 0.1, cone_map(*_lane()), slow)
+    assert _top_speed_mps(planner, 0.2, _blocked(6.0), slow)[0] == -1
+    best, top = _top_speed_mps(planner, 0.3, cone_map(*_lane()), slow)
+    assert best >= 0 and top > planner.config.fallback_speed_mps
