@@ -104,6 +104,12 @@ class ControllerConfig:
     mode_switch_accel_mps2: float = 0.4
     """Hysteresis between throttle and brake modes on the wanted acceleration."""
     speed_preview_s: float = 0.25
+    speed_dip_margin_mps: float = 0.0
+    """When a target between the car and the preview point is slower than both the target read
+    there and the car's speed less this margin (m/s), the speed loop reads that slower target
+    instead and takes no positive feed-forward: a manoeuvre that bends back to its plan in its
+    first metres dips its speed there and rises after, and read 0.25 s ahead the dip is
+    skipped while the car, too fast for it, runs wide. 0: off (the preview point alone)."""
     steering_law: Literal["preview", "pure_pursuit", "stanley", "heading_p"] = "preview"
     lookahead_min_m: float = 3.0
     lookahead_max_m: float = 12.0

@@ -49,6 +49,8 @@ logger = logging.getLogger(__name__)
 
 PATH_MAX_AGE_S = 1.0
 """A plan's path is still steered along during a stop for this long (s)."""
+DIP_SAMPLES = 6
+"""Targets read between the car and the speed loop's preview point (``speed_dip_margin_mps``)."""
 
 
 def make_steering_law(config: ControllerConfig, car: CarConfig) -> SteeringLaw:
@@ -264,12 +266,20 @@ class Controller:
         s_near, _ = path.nearest(pose.x_m, pose.y_m)
         s_ref = s_near + max(speed, 0.0) * cfg.speed_preview_s
         v_path = path.speed_at(s_ref)
+        dip = False
+        if cfg.speed_dip_margin_mps > 0.0:
+            v_near = min(path.speed_at(float(s)) for s in np.linspace(s_near, s_ref, DIP_SAMPLES))
+            dip = v_near < min(v_path, speed - cfg.speed_dip_margin_mps)
+            if dip:
+                v_path = v_near
         v_ref = min(v_path, v_cap_mps)
         span = max(speed * 0.5, 1.0)
         v_ahead = min(path.speed_at(s_ref + span), v_cap_mps)
         a_ff = (v_ahead * v_ahead - v_ref * v_ref) / (2.0 * span)
         if v_cap_mps < v_path:
             a_ff = min(a_ff, cap_rate_mps2)
+        if dip:
+            a_ff = min(a_ff, 0.0)
         return self.longitudinal.update(v_ref, speed, a_ff, dt)
 
     def _controlled_stop(self, now_s: float, speed: float, speed_known: bool) -> float:
