@@ -18,15 +18,21 @@ from simulator.track_layouts import build_track
 
 SHARED_TRACKS = Path(__file__).resolve().parents[2] / "shared" / "data" / "tracks"
 """The shared track files beside the repository (``../shared/data/tracks``): a bare file name
-such as ``FSG.yaml`` is looked up there."""
+such as ``FSG.yaml``, or ``FSG`` without its suffix, is looked up there."""
+
+TRACK_SUFFIXES = (".csv", ".yaml", ".yml")
+"""The suffixes of the track files :func:`load_track` reads."""
 
 
 def find_shared_track(name: str, root: Path = SHARED_TRACKS) -> Path | None:
-    """The one file called ``name`` under ``root`` (searched recursively), None when there is
-    none; :class:`TrackError` when several are."""
+    """The one file called ``name`` under ``root`` (searched recursively; a ``name`` without a
+    track file's suffix matches ``name.csv``, ``name.yaml`` and ``name.yml``), None when there
+    is none; :class:`TrackError` when several are."""
     if not root.is_dir():
         return None
-    found = sorted(root.rglob(name))
+    names = [name] if Path(name).suffix.lower() in TRACK_SUFFIXES else [
+        name + suffix for suffix in TRACK_SUFFIXES]
+    found = sorted(path for pattern in names for path in root.rglob(pattern))
     if len(found) > 1:
         listed = ", ".join(str(p.relative_to(root)) for p in found)
         raise TrackError(f"track {name!r}: several files of that name under {root}: {listed}; "
@@ -37,8 +43,8 @@ def find_shared_track(name: str, root: Path = SHARED_TRACKS) -> Path | None:
 def load_track(name_or_path: str) -> Track:
     """A track by name: ``"default"``, ``"gen:SEED"`` (a generated trackdrive), ``"hard:NAME"``
     (:mod:`simulator.hard_tracks`), or a path to an EUFS ``.csv`` or AMZ FSSIM ``.yaml`` file;
-    a bare file name that is not in the working directory is looked up in
-    :data:`SHARED_TRACKS`. Raises :class:`TrackError` with a clear message."""
+    a bare file name that is not in the working directory (with or without its suffix: ``FSG``)
+    is looked up in :data:`SHARED_TRACKS`. Raises :class:`TrackError` with a clear message."""
     if name_or_path == "default":
         return default_track()
     if name_or_path.startswith("gen:"):
@@ -59,11 +65,12 @@ def load_track(name_or_path: str) -> Track:
         path = find_shared_track(name_or_path) or path
     if not path.exists():
         raise TrackError(f"track {name_or_path!r}: no such file (use 'default', 'gen:SEED',"
-                         f" a .csv / .yaml track file, or the name of one in {SHARED_TRACKS})")
+                         f" a .csv / .yaml track file, or the name of one in {SHARED_TRACKS},"
+                         f" such as FSG)")
     suffix = path.suffix.lower()
     if suffix == ".csv":
         raw = parse_eufs_csv(path)
-    elif suffix in (".yaml", ".yml"):
+    elif suffix in TRACK_SUFFIXES[1:]:
         raw = parse_fssim_yaml(path)
     else:
         raise TrackError(f"{path}: unknown track format {suffix!r} (expected .csv or .yaml)")

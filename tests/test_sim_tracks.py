@@ -306,8 +306,12 @@ def test_a_bare_file_name_is_found_among_the_shared_tracks() -> None:
     by_path = load_track(str(DATA / "amz_fssim" / "FSG.yaml"))
     assert by_name.lap_length_m == pytest.approx(by_path.lap_length_m)
     assert find_shared_track("FSG.yaml") == DATA / "amz_fssim" / "FSG.yaml"
+    assert find_shared_track("FSG") == DATA / "amz_fssim" / "FSG.yaml"
+    assert load_track("FSG").lap_length_m == pytest.approx(by_path.lap_length_m)
     with pytest.raises(TrackError, match="no such file"):
         load_track("no_such_track.csv")
+    with pytest.raises(TrackError, match="no such file"):
+        load_track("no_such_track")
 
 
 def test_a_bare_name_of_several_shared_files_asks_for_the_path(tmp_path: Path) -> None:
@@ -317,3 +321,9 @@ def test_a_bare_name_of_several_shared_files_asks_for_the_path(tmp_path: Path) -
     with pytest.raises(TrackError, match="several files of that name"):
         find_shared_track("oval.csv", tmp_path)
     assert find_shared_track("other.csv", tmp_path) is None
+    # without its suffix a name may match files of either format: the path decides
+    (tmp_path / "a" / "loop.csv").write_text("tag,x,y\n")
+    (tmp_path / "b" / "loop.yaml").write_text("cones_left: []\n")
+    with pytest.raises(TrackError, match=r"several files of that name.*a/loop\.csv.*b/loop\.yaml"):
+        find_shared_track("loop", tmp_path)
+    assert find_shared_track("loop.csv", tmp_path) == tmp_path / "a" / "loop.csv"
