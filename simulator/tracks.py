@@ -20,7 +20,9 @@ SHARED_TRACKS = Path(__file__).resolve().parents[2] / "shared" / "data" / "track
 """The shared track files beside the repository (``../shared/data/tracks``): a bare file name
 such as ``FSG.yaml``, or ``FSG`` without its suffix, is looked up there."""
 
-TRACK_SUFFIXES = (".csv", ".yaml", ".yml")
+YAML_SUFFIXES = (".yaml", ".yml")
+"""The suffixes of FSSIM track files."""
+TRACK_SUFFIXES = (".csv", *YAML_SUFFIXES)
 """The suffixes of the track files :func:`load_track` reads."""
 
 
@@ -70,7 +72,7 @@ def load_track(name_or_path: str) -> Track:
     suffix = path.suffix.lower()
     if suffix == ".csv":
         raw = parse_eufs_csv(path)
-    elif suffix in TRACK_SUFFIXES[1:]:
+    elif suffix in YAML_SUFFIXES:
         raw = parse_fssim_yaml(path)
     else:
         raise TrackError(f"{path}: unknown track format {suffix!r} (expected .csv or .yaml)")
