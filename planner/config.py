@@ -181,6 +181,10 @@ class PlannerConfig:
     exploration_wide_room_m: float = 1.5
     """The room (m, :func:`planner.exploration_speed.passage_room_m`) from which the exploring
     profile plans with ``exploration_lateral_safety_factor``: about a 3.4 m lane's middle."""
+    exploration_line_room_m: float = 1.5
+    """While exploring, the frame is the least curved line through the cones seen that keeps
+    this much room (m, :func:`planner.exploration_speed.passage_room_m`) where the lane has it
+    (:mod:`planner.seen_line`), the gates' path elsewhere. 0: the gates' path everywhere."""
     exploration_tight_room_m: float = 1.1
     """The room (m) up to which it plans with ``lateral_safety_factor``: the middle of the
     rules' narrowest lane (3 m between cone centres) has 1.08 m."""

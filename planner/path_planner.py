@@ -39,6 +39,7 @@ from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.lap_counter import LapCounter
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
 from planner.race_job import BackgroundRace, RaceLine, build_race_line
+from planner.seen_line import seen_racing_frame
 from planner.speed_profile import (
     SpeedLimits,
     forward_backward_speed_mps,
@@ -215,8 +216,14 @@ class PathPlanner:
                 frame = raced
             elif exploring:  # where the gates' path bends beyond the lock (exploring_line)
                 car_xy = (map_state.pose.x_m, map_state.pose.y_m)
-                frame = steerable_frame(frame, cones.xy_m, cones.colour, car_xy, self.car, c,
-                                        self.generator.kappa_max_1pm) or frame
+                steered = steerable_frame(frame, cones.xy_m, cones.colour, car_xy, self.car, c,
+                                          self.generator.kappa_max_1pm)
+                if steered is None and c.exploration_line_room_m > 0.0:
+                    previous = self.frame if self.frame_source == "cones" else None
+                    steered = seen_racing_frame(frame, cones.xy_m, self.generator.circle_offsets_m,
+                                                self.generator.required_m,
+                                                c.exploration_line_room_m, c, car_xy, previous)
+                frame = steered or frame
             elif c.centre_on_cones and len(cones) >= 8:
                 # (an explored path runs through the gates' middles already; centring it on
                 # every cone within reach also pulls it toward another stretch of the track)

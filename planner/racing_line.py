@@ -258,6 +258,39 @@ def min_curvature_offsets(
     return np.clip(np.asarray(result.x, np.float64), lo, hi)
 
 
+def min_curvature_offsets_ls(
+    centre_xy_m: FloatArray,
+    normals: FloatArray,
+    lower_m: FloatArray,
+    upper_m: FloatArray,
+    closed: bool = False,
+    iterations: int = 3,
+) -> FloatArray:
+    """Offsets alpha (N,) (m, along ``normals``) within [lower, upper] that minimise the sum
+    of squared curvatures of ``centre + alpha normals``, by a few Gauss-Newton steps, each a
+    small dense bounded least-squares problem (``scipy.optimize.lsq_linear``): for the short
+    lines of a plan, where :func:`min_curvature_offsets`' quasi-Newton descent takes a
+    hundred-odd steps. An offset with lower >= upper is held at the middle of the two; an
+    open line's end points (whose curvature copies their neighbours') are not counted."""
+    from scipy.optimize import lsq_linear  # local: only the plan's line needs it
+
+    lo = np.asarray(lower_m, np.float64)
+    hi = np.asarray(upper_m, np.float64)
+    held = lo >= hi
+    alpha = np.where(held, 0.5 * (lo + hi), np.clip(0.0, lo, hi))
+    free = ~held
+    if not np.any(free):
+        return alpha
+    rows = slice(None) if closed else slice(1, len(alpha) - 1)
+    for _ in range(iterations):
+        kappa = menger_curvature(centre_xy_m + alpha[:, None] * normals, closed)
+        jac = _jacobian(centre_xy_m, normals, alpha, closed).toarray()[rows][:, free]
+        target = jac @ alpha[free] - kappa[rows]
+        step = lsq_linear(jac, target, bounds=(lo[free], hi[free]), method="bvls")
+        alpha[free] = np.clip(step.x, lo[free], hi[free])
+    return alpha
+
+
 def line_lap_time_s(line_xy_m: FloatArray, closed: bool, limits: SpeedLimits,
                     speed_cap: SpeedCap | None = None) -> float:
     """Time (s) a point mass with ``limits`` needs along ``line_xy_m`` (N, 2) (a flying lap

@@ -11,28 +11,17 @@ from common.car import CarConfig
 from common.messages import ConeColour
 from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
-from planner.exploration_path import ENTRY_BEHIND_M, exploration_path
 from planner.exploring_line import bends_beyond, steerable_frame
 from planner.manoeuvres import ManoeuvreGenerator
 from planner.track_model import most_room_offsets
 from simulator.hard_tracks import HAIRPIN_RADIUS_M, first_arc, hard_track
+from support.exploring_frames import gates_frame
 
 CONFIG = PlannerConfig()
 CAR = CarConfig()
 LIMIT_1PM = ManoeuvreGenerator(CONFIG, CAR).kappa_max_1pm
 SEEN_M = 20.0
 """The camera's range: the cones the car has seen."""
-
-
-def _gates_frame(cones: np.ndarray, colours: np.ndarray, x: float, y: float, yaw: float
-                 ) -> SplineBaseframe:
-    """The exploring frame the planner builds through the gates seen from (x, y, yaw)."""
-    pts = exploration_path(cones, colours, (x, y), yaw,
-                           track_width_m=CONFIG.nominal_track_width_m, behind_m=ENTRY_BEHIND_M)
-    return SplineBaseframe(pts, False, resample_m=CONFIG.baseframe_resample_m,
-                           smoothing_m=CONFIG.baseframe_smoothing_m,
-                           step_m=CONFIG.baseframe_step_m,
-                           sigma_per_radius=CONFIG.smoothing_per_radius)
 
 
 def _body_clearance_m(frame: SplineBaseframe, cones: np.ndarray, bend_centre: np.ndarray
@@ -90,7 +79,7 @@ def test_a_hairpin_is_driven_where_the_body_has_room(hairpin, colours_known) -> 
     for x, y, yaw in poses:
         seen = np.hypot(cones_all[:, 0] - x, cones_all[:, 1] - y) < SEEN_M
         cones, colours = cones_all[seen], colours_all[seen]
-        gates = _gates_frame(cones, colours, x, y, yaw)
+        gates = gates_frame(cones, colours, x, y, yaw)
         sharp += bends_beyond(gates, 0.0, LIMIT_1PM)
         steered = steerable_frame(gates, cones, colours, (x, y), CAR, CONFIG, LIMIT_1PM)
         if steered is None:  # its sharpest bend is no gentler: the gates' path is kept
