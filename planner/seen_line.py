@@ -39,6 +39,9 @@ HOLD_AHEAD_M = 3.0
 """How far (m) ahead of the car the line is held where the last plan's frame ran."""
 HOLD_MAX_M = 1.5
 """A sample further (m) than this from the last plan's frame is not held to it."""
+NEAR_START_M = 12.0
+"""The stretch (m) of a frame from its start, and about the car, that the car and the line
+near it are projected onto (a frame starts at most 6 m behind the car)."""
 SIDE_REACH_M = 4.0
 """How far (m) beside the path a cone bounds its side; a side with no cone within this is not
 seen there."""
@@ -120,12 +123,22 @@ def _held_offsets(frame: SplineBaseframe, previous: SplineBaseframe, xy: FloatAr
                   ) -> tuple[NDArray[np.bool_], FloatArray]:
     """Which samples (M,) of ``frame`` (points ``xy`` (M, 2) at arc lengths ``s`` (M,)) lie no
     further than :data:`HOLD_AHEAD_M` ahead of the car, within ``previous``'s length and
-    :data:`HOLD_MAX_M` of it; and the offsets (M,) (m) that put them on ``previous``."""
-    s_car = frame.project(*car_xy_m)[0]
-    s_prev, d_prev = previous.project_many(xy)
-    inside = (s_prev > previous.s_m[0]) & (s_prev < previous.s_m[-1])
-    held = (s <= s_car + HOLD_AHEAD_M) & inside & (np.abs(d_prev) <= HOLD_MAX_M)
-    return held, np.asarray(-d_prev, np.float64)
+    :data:`HOLD_MAX_M` of it; and the offsets (M,) (m) that put them on ``previous``.
+
+    Both frames start at a gate behind the car; once the cones seen go round the track, a
+    frame's far end comes back near its start, so the car and the samples are projected onto
+    the stretch of each frame that starts there (within :data:`NEAR_START_M` of the start)."""
+    s_car = frame.project(*car_xy_m, s_hint_m=float(frame.s_m[0]), window_m=NEAR_START_M)[0]
+    s_hint = previous.project(*car_xy_m, s_hint_m=float(previous.s_m[0]),
+                              window_m=NEAR_START_M)[0]
+    held = np.zeros(len(s), bool)
+    offset = np.zeros(len(s))
+    for i in np.nonzero(s <= s_car + HOLD_AHEAD_M)[0]:
+        s_prev, d_prev = previous.project(*xy[i], s_hint_m=s_hint, window_m=NEAR_START_M)
+        inside = previous.s_m[0] < s_prev < previous.s_m[-1]
+        held[i] = inside and abs(d_prev) <= HOLD_MAX_M
+        offset[i] = -d_prev
+    return held, offset
 
 
 def _both_sides_seen_to_m(frame: SplineBaseframe, cones_xy_m: FloatArray) -> float:

@@ -151,3 +151,23 @@ def test_free_sides_of_a_lane_middle_are_equal_and_sum_to_its_room() -> None:
     # 2 m to each side's cone centres, less the body's half width and the cone's margin
     expected = 2.0 - GENERATOR.required_m - (CAR.width_m / 2.0 - GENERATOR.circle_radius_m)
     assert np.median(left) == pytest.approx(expected, abs=0.15)
+
+
+def test_the_hold_reads_the_last_frame_near_its_start_when_it_comes_round(wide_bend) -> None:
+    cones, colours, _, line = wide_bend
+    car_xy = line.frenet_to_xy(line.project(-5.0, 0.0)[0], 0.0)
+    frame = gates_frame(cones, colours, car_xy[0], car_xy[1], 0.0)
+    # the last frame 0.3 m left of the line, then round and back past the car 0.2 m right of
+    # the lane's middle: nearer the car than its first stretch, the wrong stretch to hold to
+    first = line.xy_m + np.array([0.0, 0.3])
+    back_x = np.arange(25.0, -20.0, -0.5)
+    round_trip = np.vstack([first, [[18.0, 40.0], [28.0, 30.0], [30.0, 10.0], [28.0, 1.0]],
+                            np.stack([back_x, np.full(len(back_x), -0.2)], axis=1)])
+    previous = SplineBaseframe(round_trip, False, resample_m=1.0, smoothing_m=0.0, step_m=0.25)
+    held = _line(frame, cones, car_xy_m=(car_xy[0], car_xy[1]), previous=previous)
+    assert held is not None
+    s_car = held.project(*car_xy)[0]
+    near = (held.s_m >= s_car) & (held.s_m <= s_car + HOLD_AHEAD_M - 1.0)
+    # on the straight the last frame's first stretch is a function of x
+    on_first = np.interp(held.xy_m[near, 0], first[:, 0], first[:, 1])
+    np.testing.assert_allclose(held.xy_m[near, 1], on_first, atol=0.08)
