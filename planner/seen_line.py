@@ -134,7 +134,8 @@ def _held_offsets(frame: SplineBaseframe, previous: SplineBaseframe, xy: FloatAr
     held = np.zeros(len(s), bool)
     offset = np.zeros(len(s))
     for i in np.nonzero(s <= s_car + HOLD_AHEAD_M)[0]:
-        s_prev, d_prev = previous.project(*xy[i], s_hint_m=s_hint, window_m=NEAR_START_M)
+        s_prev, d_prev = previous.project(float(xy[i, 0]), float(xy[i, 1]), s_hint_m=s_hint,
+                                          window_m=NEAR_START_M)
         inside = previous.s_m[0] < s_prev < previous.s_m[-1]
         held[i] = inside and abs(d_prev) <= HOLD_MAX_M
         offset[i] = -d_prev
