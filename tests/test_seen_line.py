@@ -171,3 +171,27 @@ def test_the_hold_reads_the_last_frame_near_its_start_when_it_comes_round(wide_b
     # on the straight the last frame's first stretch is a function of x
     on_first = np.interp(held.xy_m[near, 0], first[:, 0], first[:, 1])
     np.testing.assert_allclose(held.xy_m[near, 1], on_first, atol=0.08)
+
+
+@pytest.mark.shared_data("tracks/eufs/peanut.csv")
+@pytest.mark.slow
+def test_peanut_explored_on_the_line_is_clean_and_faster(tmp_path) -> None:
+    """The whole stack on EUFS peanut (autocross, seed 3), with the line and without: both
+    clean, the unseen lap on the line faster (measured 1.33x -> 1.24x the friction limit)."""
+    from orchestrator.config import AppConfig
+    from orchestrator.sim import SimOptions, run_sim
+    from support.shared_data import shared_path
+
+    track = str(shared_path("tracks", "eufs", "peanut.csv"))
+    laps = {}
+    for room_m in (0.0, ROOM_M):
+        config = AppConfig()
+        config.planner.exploration_line_room_m = room_m
+        summary = run_sim(config, SimOptions(track=track, seed=3, mission="autocross",
+                                             render=False, record=False,
+                                             out_dir=tmp_path / f"room_{room_m}"))
+        assert summary["finished"], summary["stop_reason"]
+        assert summary["cones_hit"] == 0
+        assert summary["off_track"] == 0
+        laps[room_m] = summary["mission_result"]["explored_lap_s"]
+    assert laps[ROOM_M] < 0.97 * laps[0.0]
