@@ -33,7 +33,7 @@ from planner.exploration_speed import (
     wide_lateral_factor,
 )
 from planner.explored_lap import ExploredLap
-from planner.exploring_line import steerable_frame
+from planner.exploring_line import bends_beyond, steerable_frame
 from planner.gate_search import coloured_ahead
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.lap_counter import LapCounter
@@ -218,7 +218,12 @@ class PathPlanner:
                 car_xy = (map_state.pose.x_m, map_state.pose.y_m)
                 steered = steerable_frame(frame, cones.xy_m, cones.colour, car_xy, self.car, c,
                                           self.generator.kappa_max_1pm)
-                if steered is None and c.exploration_line_room_m > 0.0:
+                if (steered is None and c.exploration_line_room_m > 0.0
+                        and not bends_beyond(frame, frame.project(*car_xy)[0]
+                                             + c.exploration_start_m,
+                                             self.generator.kappa_max_1pm)):
+                    # (where the gates' path bends beyond the lock the cones seen may leave
+                    # the line room across a hairpin's infield: EUFS Hairpin seed 3)
                     previous = self.frame if self.frame_source == "cones" else None
                     steered = seen_racing_frame(frame, cones.xy_m, self.generator.circle_offsets_m,
                                                 self.generator.required_m,
