@@ -14,8 +14,6 @@ goes on is not known, and the line ends on the middle of the lane.
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -23,8 +21,6 @@ from planner.baseframe import SplineBaseframe
 from planner.config import PlannerConfig
 from planner.exploration_speed import free_sides_m
 from planner.racing_line import min_curvature_offsets_ls
-
-logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
 
