@@ -221,9 +221,12 @@ class PathPlanner:
                 if (steered is None and c.exploration_line_room_m > 0.0
                         and not bends_beyond(frame, frame.project(*car_xy)[0]
                                              + c.exploration_start_m,
-                                             self.generator.kappa_max_1pm)):
+                                             self.generator.kappa_max_1pm)
+                        and coloured_ahead(cones.xy_m, cones.colour, car_xy,
+                                           map_state.pose.yaw_rad, c.horizon_max_m)):
                     # (where the gates' path bends beyond the lock the cones seen may leave
-                    # the line room across a hairpin's infield: EUFS Hairpin seed 3)
+                    # the line room across a hairpin's infield: EUFS Hairpin seed 3; without
+                    # colours the gates are guessed, and so is the room beside them)
                     previous = self.frame if self.frame_source == "cones" else None
                     steered = seen_racing_frame(frame, cones.xy_m, self.generator.circle_offsets_m,
                                                 self.generator.required_m,

@@ -175,6 +175,42 @@ def test_the_hold_reads_the_last_frame_near_its_start_when_it_comes_round(wide_b
 
 @pytest.mark.shared_data("tracks/eufs/peanut.csv")
 @pytest.mark.slow
+def _planner_frame(cones: np.ndarray, colours: np.ndarray) -> SplineBaseframe:
+    """The frame the planner explores on, with the line asked for, from the car at (-12, 0)
+    heading along x with every cone of ``cones`` (N, 2) seen in ``colours`` (N,)."""
+    from common.messages import ConeMap, MapState, PoseEstimate
+    from planner.path_planner import PathPlanner
+
+    n = len(cones)
+    cone_map = ConeMap(xy_m=cones, covariance=np.tile(np.eye(2) * 0.01, (n, 1, 1)),
+                       colour=np.asarray(colours, np.int64), size=np.ones(n, np.int64),
+                       confidence=np.ones(n), ids=np.arange(n, dtype=np.int64))
+    pose = PoseEstimate(0.0, -12.0, 0.0, 0.0, 5.0, 0.0, 0.0, np.eye(3) * 1e-4)
+    planner = PathPlanner(PlannerConfig(exploration_line_room_m=ROOM_M), CAR)
+    state = MapState(0.0, pose, cone_map, loop_closed=False)
+    planner.start_autonomous(state)
+    assert planner.explore(state) and planner.exploring
+    assert planner.frame is not None
+    return planner.frame
+
+
+def test_the_planner_races_the_line_only_where_the_cones_ahead_carry_colours() -> None:
+    """With colours the planner explores on the line (it bends less than the bend's middle);
+    with the camera dead the gates, and the room beside them, are guessed, and it keeps the
+    gates' path (measured: the line on EUFS Hairpin with the camera dead touched a cone
+    before the stop it comes to either way)."""
+    middle, cones, colours = _bend(5.0)
+    middle = middle[(middle[:, 0] > -10.0) & (middle[:, 1] < 30.0)][::8]  # within the frames
+    coloured = _planner_frame(cones, colours)
+    _, d_coloured = coloured.project_many(middle)
+    # the line may move 0.75 m either way of the middle (a 5 m lane, 1.5 m of room kept)
+    assert 0.5 < np.max(np.abs(d_coloured)) < 0.75 + 0.1
+    blind = _planner_frame(cones, np.full(len(cones), int(ConeColour.UNKNOWN)))
+    _, d_blind = blind.project_many(middle)
+    assert np.max(np.abs(d_blind)) < 0.2
+    assert np.max(np.abs(blind.curvature_1pm)) == pytest.approx(0.1, abs=0.02)  # radius 10 m
+
+
 def test_peanut_explored_on_the_line_is_clean_and_faster(tmp_path) -> None:
     """The whole stack on EUFS peanut (autocross, seed 3), with the line and without: both
     clean, the unseen lap on the line faster (measured 1.33x -> 1.24x the friction limit)."""
