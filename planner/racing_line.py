@@ -268,12 +268,10 @@ def min_curvature_offsets_ls(
 ) -> FloatArray:
     """Offsets alpha (N,) (m, along ``normals``) within [lower, upper] that minimise the sum
     of squared curvatures of ``centre + alpha normals``, by a few Gauss-Newton steps, each a
-    small dense bounded least-squares problem (``scipy.optimize.lsq_linear``): for the short
+    small dense bounded least-squares problem (:func:`bounded_least_squares`): for the short
     lines of a plan, where :func:`min_curvature_offsets`' quasi-Newton descent takes a
     hundred-odd steps. An offset with lower >= upper is held at the middle of the two; an
     open line's end points (whose curvature copies their neighbours') are not counted."""
-    from scipy.optimize import lsq_linear  # local: only the plan's line needs it
-
     lo = np.asarray(lower_m, np.float64)
     hi = np.asarray(upper_m, np.float64)
     held = lo >= hi
@@ -286,9 +284,30 @@ def min_curvature_offsets_ls(
         kappa = menger_curvature(centre_xy_m + alpha[:, None] * normals, closed)
         jac = _jacobian(centre_xy_m, normals, alpha, closed).toarray()[rows][:, free]
         target = jac @ alpha[free] - kappa[rows]
-        step = lsq_linear(jac, target, bounds=(lo[free], hi[free]), method="bvls")
-        alpha[free] = np.clip(step.x, lo[free], hi[free])
+        alpha[free] = np.clip(bounded_least_squares(jac, target, lo[free], hi[free]),
+                              lo[free], hi[free])
     return alpha
+
+
+def bounded_least_squares(a: FloatArray, b: FloatArray, lower: FloatArray,
+                          upper: FloatArray) -> FloatArray:
+    """x (N,) within [lower, upper] (N,) that minimises |a x - b|^2 (``a`` (M, N), ``b`` (M,)),
+    as the quadratic program 1/2 x' (a'a) x - (a'b)' x, solved by DAQP's dual active set
+    (0.1-0.2 ms on a plan's 30-40 offsets, the same x to 1e-13 as scipy's ``lsq_linear``
+    bvls, which took 3-10 ms); bvls when DAQP reports no optimum (a'a is singular where the
+    ends are free: DAQP regularises it)."""
+    import daqp  # local: only the plan's line needs it
+
+    n = a.shape[1]
+    x, _, exit_flag, _ = daqp.solve(a.T @ a, -(a.T @ b), np.zeros((0, n)),
+                                    np.array(upper, np.float64), np.array(lower, np.float64),
+                                    np.zeros(n, np.int32))
+    if exit_flag == 1:  # optimal
+        return np.asarray(x, np.float64)
+    from scipy.optimize import lsq_linear
+
+    logger.warning("daqp exit flag %d on a %d-offset line: solved by bvls", exit_flag, n)
+    return np.asarray(lsq_linear(a, b, bounds=(lower, upper), method="bvls").x, np.float64)
 
 
 def line_lap_time_s(line_xy_m: FloatArray, closed: bool, limits: SpeedLimits,

@@ -231,3 +231,54 @@ def test_peanut_explored_on_the_line_is_clean_and_faster(tmp_path) -> None:
         assert summary["off_track"] == 0
         laps[room_m] = summary["mission_result"]["explored_lap_s"]
     assert laps[ROOM_M] < 0.97 * laps[0.0]
+
+
+def _curvature_problem(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                    np.ndarray]:
+    """A line's Gauss-Newton step as the seen line poses it: the curvature Jacobian (n-2, n)
+    of a wavy open line (second differences over 1.5 m, tridiagonal: a'a is singular with both
+    ends free), a target and offset bounds of a 3-5 m lane keeping 1.5 m of room."""
+    rng = np.random.default_rng(seed)
+    step_m = 1.5
+    a = np.zeros((n - 2, n))
+    for i in range(n - 2):
+        a[i, i:i + 3] = np.array([1.0, -2.0, 1.0]) / step_m**2
+    b = 0.1 * np.sin(np.linspace(0.0, 3.0, n - 2)) + 0.01 * rng.standard_normal(n - 2)
+    half_room_m = 0.5 * (rng.uniform(3.0, 5.0, n) - ROOM_M)
+    return a, b, -half_room_m, half_room_m
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_lines_bounded_least_squares_is_scipys_bvls(seed: int) -> None:
+    """DAQP's solve of the line's step is the optimum scipy's bvls finds (the same problem,
+    solved 30-50x faster): within the bounds, the same least sum of squares, and, where a'a
+    is singular (an optimum along a straight line's free tilt is not unique, and DAQP
+    regularises), offsets within a millimetre of bvls's."""
+    from scipy.optimize import lsq_linear
+
+    from planner.racing_line import bounded_least_squares
+
+    a, b, lower, upper = _curvature_problem(34, seed)
+    x = bounded_least_squares(a, b, lower, upper)
+    reference = lsq_linear(a, b, bounds=(lower, upper), method="bvls").x
+    assert np.all((x >= lower - 1e-9) & (x <= upper + 1e-9))
+    assert np.any(np.isclose(x, lower) | np.isclose(x, upper))  # some bounds bind
+    assert np.sum((a @ x - b) ** 2) == pytest.approx(np.sum((a @ reference - b) ** 2),
+                                                     rel=1e-9)
+    assert np.max(np.abs(x - reference)) < 1e-3
+
+
+def test_a_failed_daqp_solve_falls_back_to_bvls(monkeypatch, caplog) -> None:
+    """When DAQP reports no optimum (exit flag -4: its iteration limit), the step is bvls's,
+    and the fallback is logged."""
+    import daqp
+    from scipy.optimize import lsq_linear
+
+    from planner.racing_line import bounded_least_squares
+
+    a, b, lower, upper = _curvature_problem(20, 4)
+    monkeypatch.setattr(daqp, "solve", lambda *args, **kw: (np.zeros(20), 0.0, -4, {}))
+    with caplog.at_level("WARNING", logger="planner.racing_line"):
+        x = bounded_least_squares(a, b, lower, upper)
+    assert np.allclose(x, lsq_linear(a, b, bounds=(lower, upper), method="bvls").x)
+    assert "daqp exit flag -4" in caplog.text
