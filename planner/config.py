@@ -187,9 +187,10 @@ class PlannerConfig:
     (:mod:`planner.seen_line`), the gates' path elsewhere. 0 (the default): the gates' path
     everywhere. 1.5 (``exploration_wide_room_m``) took issue 45's 141 autocross runs' 81
     outside the generated layouts from a median 1.405x to 1.32x of the friction limit, FSG
-    from 1.29x to 1.21x, all clean. It is built only where the cones ahead carry colours
-    (:func:`planner.gate_search.coloured_ahead`): with the camera dead EUFS Hairpin seeds 2-3,
-    which stop either way, touched a cone on it first. The outside layouts' seeds 4-8 are not
+    from 1.29x to 1.21x, all clean. It is built only while the map holds a coloured cone
+    (:func:`planner.gate_search.has_colours`, as the colour-blind exploring path is chosen):
+    with the camera dead EUFS Hairpin seeds 2-3, which stop either way, touched a cone on it
+    first. The outside layouts' seeds 4-8 are not
     measured with it: not the default yet (``docs/driving.md``)."""
     exploration_tight_room_m: float = 1.1
     """The room (m) up to which it plans with ``lateral_safety_factor``: the middle of the

@@ -34,7 +34,7 @@ from planner.exploration_speed import (
 )
 from planner.explored_lap import ExploredLap
 from planner.exploring_line import bends_beyond, steerable_frame
-from planner.gate_search import coloured_ahead
+from planner.gate_search import coloured_ahead, has_colours
 from planner.known_path import KNOWN_PATH_MISSIONS, KnownPathMission
 from planner.lap_counter import LapCounter
 from planner.manoeuvres import Candidate, ManoeuvreGenerator
@@ -222,11 +222,10 @@ class PathPlanner:
                         and not bends_beyond(frame, frame.project(*car_xy)[0]
                                              + c.exploration_start_m,
                                              self.generator.kappa_max_1pm)
-                        and coloured_ahead(cones.xy_m, cones.colour, car_xy,
-                                           map_state.pose.yaw_rad, c.horizon_max_m)):
+                        and has_colours(cones.colour)):
                     # (where the gates' path bends beyond the lock the cones seen may leave
-                    # the line room across a hairpin's infield: EUFS Hairpin seed 3; without
-                    # colours the gates are guessed, and so is the room beside them)
+                    # the line room across a hairpin's infield: EUFS Hairpin seed 3; with no
+                    # colour in the map the gates are guessed, and so is the room beside them)
                     previous = self.frame if self.frame_source == "cones" else None
                     steered = seen_racing_frame(frame, cones.xy_m, self.generator.circle_offsets_m,
                                                 self.generator.required_m,

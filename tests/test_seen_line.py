@@ -194,7 +194,7 @@ def _planner_frame(cones: np.ndarray, colours: np.ndarray) -> SplineBaseframe:
     return planner.frame
 
 
-def test_the_planner_races_the_line_only_where_the_cones_ahead_carry_colours() -> None:
+def test_the_planner_races_the_line_only_with_colours_in_the_map() -> None:
     """With colours the planner explores on the line (it bends less than the bend's middle);
     with the camera dead the gates, and the room beside them, are guessed, and it keeps the
     gates' path (measured: the line on EUFS Hairpin with the camera dead touched a cone
