@@ -181,17 +181,16 @@ class PlannerConfig:
     exploration_wide_room_m: float = 1.5
     """The room (m, :func:`planner.exploration_speed.passage_room_m`) from which the exploring
     profile plans with ``exploration_lateral_safety_factor``: about a 3.4 m lane's middle."""
-    exploration_line_room_m: float = 0.0
+    exploration_line_room_m: float = 1.5
     """While exploring, the frame is the least curved line through the cones seen that keeps
     this much room (m, :func:`planner.exploration_speed.passage_room_m`) where the lane has it
-    (:mod:`planner.seen_line`), the gates' path elsewhere. 0 (the default): the gates' path
-    everywhere. 1.5 (``exploration_wide_room_m``) took issue 45's 141 autocross runs' 81
-    outside the generated layouts from a median 1.405x to 1.32x of the friction limit, FSG
-    from 1.29x to 1.21x, all clean. It is built only while the map holds a coloured cone
-    (:func:`planner.gate_search.has_colours`, as the colour-blind exploring path is chosen):
-    with the camera dead EUFS Hairpin seeds 2-3, which stop either way, touched a cone on it
-    first. The outside layouts' seeds 4-8 are not
-    measured with it: not the default yet (``docs/driving.md``)."""
+    (:mod:`planner.seen_line`), the gates' path elsewhere; 0: the gates' path everywhere. At
+    1.5 (``exploration_wide_room_m``) issue 45's 141 autocross runs' 81 outside the generated
+    layouts went from a median 1.405x to 1.32x of the friction limit, FSG from 1.29x to 1.21x,
+    the outside layouts' seeds 4-8 from 1.399x to 1.338x, all clean. It is built only while
+    the map holds a coloured cone (:func:`planner.gate_search.has_colours`, as the
+    colour-blind exploring path is chosen): with the camera dead EUFS Hairpin seeds 2-3, which
+    stop either way, touched a cone on it first (``docs/driving.md``)."""
     exploration_tight_room_m: float = 1.1
     """The room (m) up to which it plans with ``lateral_safety_factor``: the middle of the
     rules' narrowest lane (3 m between cone centres) has 1.08 m."""
