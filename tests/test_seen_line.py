@@ -173,8 +173,6 @@ def test_the_hold_reads_the_last_frame_near_its_start_when_it_comes_round(wide_b
     np.testing.assert_allclose(held.xy_m[near, 1], on_first, atol=0.08)
 
 
-@pytest.mark.shared_data("tracks/eufs/peanut.csv")
-@pytest.mark.slow
 def _planner_frame(cones: np.ndarray, colours: np.ndarray) -> SplineBaseframe:
     """The frame the planner explores on, with the line asked for, from the car at (-12, 0)
     heading along x with every cone of ``cones`` (N, 2) seen in ``colours`` (N,)."""
@@ -211,6 +209,8 @@ def test_the_planner_races_the_line_only_with_colours_in_the_map() -> None:
     assert np.max(np.abs(blind.curvature_1pm)) == pytest.approx(0.1, abs=0.02)  # radius 10 m
 
 
+@pytest.mark.shared_data("tracks/eufs/peanut.csv")
+@pytest.mark.slow
 def test_peanut_explored_on_the_line_is_clean_and_faster(tmp_path) -> None:
     """The whole stack on EUFS peanut (autocross, seed 3), with the line and without: both
     clean, the unseen lap on the line faster (measured 1.33x -> 1.24x the friction limit)."""
